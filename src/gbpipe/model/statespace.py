@@ -1,0 +1,210 @@
+"""Named state-space matrices of mechanisms, open loop and with the bench's PI loops.
+
+Matrices are built with numpy only (cheap: config validation checks closed-loop stability
+without importing python-control); :func:`to_control` wraps them in a named
+``control.StateSpace`` at the end.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from gbpipe.model.mechanics import Mechanism
+
+__all__ = ["NamedSS", "mechanism_ss", "close_bench_loops", "to_control"]
+
+
+@dataclass
+class NamedSS:
+    """Continuous-time state space ``ẋ = Ax + Bu, y = Cx + Du`` with names and units.
+
+    Attributes
+    ----------
+    A, B, C, D : ndarray
+    states, inputs, outputs : list of str
+    units : dict
+        Signal name → unit string, for every input, output and state.
+    """
+
+    A: np.ndarray
+    B: np.ndarray
+    C: np.ndarray
+    D: np.ndarray
+    states: list[str]
+    inputs: list[str]
+    outputs: list[str]
+    units: dict[str, str] = field(default_factory=dict)
+
+    def index(self, kind: str, name: str) -> int:
+        names = {"input": self.inputs, "output": self.outputs, "state": self.states}[kind]
+        if name not in names:
+            raise ValueError(f"unknown {kind} {name!r}; available: {', '.join(names)}")
+        return names.index(name)
+
+    def select(self, inputs: list[str] | None = None,
+               outputs: list[str] | None = None) -> NamedSS:
+        """Sub-system from chosen inputs to chosen outputs (states kept)."""
+        ii = [self.index("input", n) for n in (inputs or self.inputs)]
+        oo = [self.index("output", n) for n in (outputs or self.outputs)]
+        return NamedSS(self.A, self.B[:, ii], self.C[oo], self.D[np.ix_(oo, ii)], self.states,
+                       [self.inputs[i] for i in ii], [self.outputs[o] for o in oo], self.units)
+
+    def poles(self) -> np.ndarray:
+        return np.linalg.eigvals(self.A)
+
+
+def mechanism_ss(mech: Mechanism, torque_inputs: Mapping[str, tuple[str, float]],
+                 error_inputs: Mapping[str, str], speed_outputs: Mapping[str, str],
+                 torque_outputs: Mapping[str, tuple[str, float]],
+                 angle_outputs: Mapping[str, str] | None = None) -> NamedSS:
+    """State space of a mechanism with states ``[q, q̇]``.
+
+    Parameters
+    ----------
+    mech : Mechanism
+    torque_inputs : mapping
+        Input name → (body, sign): a torque [N·m] on a body.
+    error_inputs : mapping
+        Input name → spring: a prescribed angle error [rad] added to the spring's twist
+        (transmission error of a rigid mesh, misalignment of a coupling).
+    speed_outputs : mapping
+        Output name → body: its angular speed [rad/s].
+    torque_outputs : mapping
+        Output name → (spring, sign): the spring's torque [N·m] including damping and any
+        angle error input on it.
+    angle_outputs : mapping, optional
+        Output name → body: its angle [rad].
+    """
+    M, K, Cd = mech.mass_matrix, mech.stiffness_matrix, mech.damping_matrix
+    n = len(mech.coords)
+    Minv = np.linalg.inv(M)
+    Bq = np.column_stack(
+        [mech.torque_input(b, s) for b, s in torque_inputs.values()]
+        + [mech.angle_error_input(sp) for sp in error_inputs.values()]
+    ) if (torque_inputs or error_inputs) else np.zeros((n, 0))
+    A = np.block([[np.zeros((n, n)), np.eye(n)], [-Minv @ K, -Minv @ Cd]])
+    B = np.vstack([np.zeros_like(Bq), Minv @ Bq])
+    inputs = list(torque_inputs) + list(error_inputs)
+    rows, drows, outputs = [], [], []
+    idx = mech.body_index
+    for name, body in speed_outputs.items():
+        rows.append(np.concatenate([np.zeros(n), mech.T[idx[body]]]))
+        drows.append(np.zeros(len(inputs)))
+        outputs.append(name)
+    for name, (spring, sign) in torque_outputs.items():
+        s = mech.spring(spring)
+        h = mech.twist_map(s)
+        rows.append(sign * np.concatenate([s.stiffness * h, s.damping * h]))
+        d = np.zeros(len(inputs))
+        for j, sp in enumerate(error_inputs.values()):
+            if sp == spring:
+                d[len(torque_inputs) + j] = sign * s.stiffness
+        drows.append(d)
+        outputs.append(name)
+    for name, body in (angle_outputs or {}).items():
+        rows.append(np.concatenate([mech.T[idx[body]], np.zeros(n)]))
+        drows.append(np.zeros(len(inputs)))
+        outputs.append(name)
+    C = np.array(rows).reshape(len(outputs), 2 * n)
+    D = np.array(drows).reshape(len(outputs), len(inputs))
+    states = [f"angle[{c}]" for c in mech.coords] + [f"speed[{c}]" for c in mech.coords]
+    units = {s: ("rad" if s.startswith("angle") else "rad/s") for s in states}
+    units.update({u: "N m" for u in torque_inputs})
+    units.update({u: "rad" for u in error_inputs})
+    units.update({o: "rad/s" for o in speed_outputs})
+    units.update({o: "N m" for o in torque_outputs})
+    units.update({o: "rad" for o in (angle_outputs or {})})
+    return NamedSS(A, B, C, D, states, inputs, outputs, units)
+
+
+def close_bench_loops(plant: NamedSS, bench_cfg: Mapping[str, Any],
+                      speed_gains: tuple[float, float] | None = None,
+                      torque_gains: tuple[float, float] | None = None) -> NamedSS:
+    """Close the bench's two PI loops around the open-loop plant.
+
+    Driver motor (speed loop, on the driver-motor speed ``speed_driver_motor``)::
+
+        T_driver = Kp·(b·ω_ref − ω) + Ki·∫(ω_ref − ω) dt + d_driver
+
+    Driven motor (braking-torque loop, on the driven torque meter)::
+
+        T_brake = ff·T_ref + Kp_t·(T_ref − T_meter) + Ki_t·∫(T_ref − T_meter) dt + d_driven
+
+    Parameters
+    ----------
+    plant : NamedSS
+        Open-loop bench with inputs ``motor_torque_driver``, ``motor_torque_driven``
+        first, then excitation inputs.
+    bench_cfg : mapping
+        ``cfg["bench"]``.
+    speed_gains, torque_gains : (kp, ki), optional
+        Override the configured gains (used to find which gain makes a loop unstable).
+
+    Returns
+    -------
+    NamedSS
+        Inputs ``speed_ref`` [rad/s], ``torque_ref`` [N·m], ``disturbance_driver``,
+        ``disturbance_driven`` [N·m], then the plant's excitation inputs; outputs the
+        plant's outputs plus both motor torques; states the plant's plus the two
+        controller integrators.
+    """
+    sc, tc = bench_cfg["speed_controller"], bench_cfg["torque_controller"]
+    kp, ki = speed_gains or (float(sc["kp"]), float(sc["ki"]))
+    kpt, kit = torque_gains or (float(tc["kp"]), float(tc["ki"]))
+    b = float(sc.get("setpoint_weight", 1.0))
+    ff = float(tc.get("feedforward", 1.0))
+    i_drv, i_brk = plant.index("input", "motor_torque_driver"), plant.index(
+        "input", "motor_torque_driven")
+    exc = [i for i in range(len(plant.inputs)) if i not in (i_drv, i_brk)]
+    cw = plant.C[plant.index("output", "speed_driver_motor")]
+    it = plant.index("output", "torque_meter_driven")
+    ct, dt_ = plant.C[it], plant.D[it, exc]
+    nx, ne = plant.A.shape[0], len(exc)
+    # controller outputs as linear maps of [x, z_speed, z_torque] and u_cl
+    # u_cl = [speed_ref, torque_ref, d_driver, d_driven, exc...]
+    nu = 4 + ne
+    Kx = np.zeros((2, nx + 2))
+    Ku = np.zeros((2, nu))
+    Kx[0, :nx], Kx[0, nx] = -kp * cw, ki
+    Ku[0, 0], Ku[0, 2] = kp * b, 1.0
+    Kx[1, :nx], Kx[1, nx + 1] = -kpt * ct, kit
+    Ku[1, 1], Ku[1, 3] = ff + kpt, 1.0
+    Ku[1, 4:] = -kpt * dt_
+    Bm = plant.B[:, [i_drv, i_brk]]
+    A = np.zeros((nx + 2, nx + 2))
+    A[:nx, :nx] = plant.A
+    A[:nx] += Bm @ Kx
+    A[nx, :nx] = -cw
+    A[nx + 1, :nx] = -ct
+    B = np.zeros((nx + 2, nu))
+    B[:nx] = Bm @ Ku
+    B[:nx, 4:] += plant.B[:, exc]
+    B[nx, 0] = 1.0
+    B[nx + 1, 1] = 1.0
+    B[nx + 1, 4:] = -dt_
+    Dm = plant.D[:, [i_drv, i_brk]]
+    C = np.vstack([np.hstack([plant.C, np.zeros((len(plant.outputs), 2))]) + Dm @ Kx, Kx])
+    D = np.vstack([Dm @ Ku, Ku])
+    D[:len(plant.outputs), 4:] += plant.D[:, exc]
+    inputs = ["speed_ref", "torque_ref", "disturbance_driver", "disturbance_driven"] + [
+        plant.inputs[i] for i in exc]
+    outputs = plant.outputs + ["motor_torque_driver", "motor_torque_driven"]
+    states = plant.states + ["integral_speed_error", "integral_torque_error"]
+    units = dict(plant.units)
+    units.update(speed_ref="rad/s", torque_ref="N m", disturbance_driver="N m",
+                 disturbance_driven="N m", motor_torque_driver="N m",
+                 motor_torque_driven="N m", integral_speed_error="rad",
+                 integral_torque_error="N m s")
+    return NamedSS(A, B, C, D, states, inputs, outputs, units)
+
+
+def to_control(ss: NamedSS, name: str | None = None):
+    """Wrap as a named ``control.StateSpace`` (continuous time)."""
+    import control
+
+    return control.ss(ss.A, ss.B, ss.C, ss.D, inputs=ss.inputs, outputs=ss.outputs,
+                      states=ss.states, name=name)

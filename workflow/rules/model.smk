@@ -1,0 +1,34 @@
+rule model:
+    message:
+        "Torsional models of one gearbox and of the back-to-back bench (Figs 3-5)"
+    input:
+        lib("model/__init__.py", "model/mechanics.py", "model/drivetrain.py",
+            "model/statespace.py", "model/dataset.py", "io.py"),
+    params:
+        model={k: config[k] for k in ("gearbox", "bench", "model")},
+    output:
+        gearbox=f"{RESULTS}/model/gearbox.nc",
+        bench=f"{RESULTS}/model/bench.nc",
+    log:
+        f"{RESULTS}/logs/model.log",
+    benchmark:
+        f"{RESULTS}/benchmarks/model.tsv"
+    script:
+        "../scripts/model.py"
+
+
+rule figures_model:
+    message:
+        "Figures 3 (gearbox Bode), 4 (bench Bode) and 5 (topology)"
+    input:
+        gearbox=rules.model.output.gearbox,
+        bench=rules.model.output.bench,
+        code=lib("figures/model_plots.py", "figures/topology.py", "figures/style.py"),
+    params:
+        model={k: config[k] for k in ("gearbox", "bench")},
+    output:
+        figure(3) + figure(4) + figure(5),
+    log:
+        f"{RESULTS}/logs/figures_model.log",
+    script:
+        "../scripts/figures_model.py"
