@@ -26,6 +26,7 @@ wildcard_constraints:
 include: "workflow/rules/common.smk"
 include: "workflow/rules/kinematics.smk"
 include: "workflow/rules/model.smk"
+include: "workflow/rules/simulate.smk"
 
 
 rule all:

@@ -133,8 +133,11 @@ def validate(cfg: Mapping[str, Any], *, check_stability: bool = True) -> dict[st
     model_frf = cfg.get("model", {}).get("frf")
     if model_frf and model_frf["f_min"] >= model_frf["f_max"]:
         raise ConfigError("config field 'model.frf.f_min' must be below 'model.frf.f_max'")
-    for hook in _EXTRA_CHECKS:
-        hook(cfg)
+    from gbpipe.simulate.profiles import check_campaign, check_excitation, check_sweep
+
+    check_excitation(cfg)
+    check_campaign(cfg)
+    check_sweep(cfg)
     if check_stability:
         from gbpipe.model import check_stability as _check
 
@@ -155,11 +158,6 @@ def _coerce_numbers(value: Any) -> Any:
     if isinstance(value, list):
         return [_coerce_numbers(v) for v in value]
     return value
-
-
-#: Further semantic checks registered by the stage modules (campaign, sweep, tsa …),
-#: each a callable taking the config dict and raising ConfigError.
-_EXTRA_CHECKS: list = []
 
 
 def load(path: str | os.PathLike, *overlays: str | os.PathLike | Mapping[str, Any],

@@ -19,6 +19,10 @@ def all_targets():
         f"{RESULTS}/model/gearbox.nc",
         f"{RESULTS}/model/bench.nc",
     ]
-    for n in (3, 4, 5):
+    camp = config["campaign"]
+    targets += expand(f"{RESULTS}/simulate/{{test}}_{{profile}}.nc", test=camp["tests"],
+                      profile=camp["profiles"])
+    targets.append(f"{RESULTS}/sweep/sweep.nc")
+    for n in (3, 4, 5, 7, 8, 9, 10):
         targets += figure(n)
     return targets

@@ -1,0 +1,13 @@
+"""Rule `simulate`: one closed-loop test variant, clean and measured-like."""
+
+from gbpipe import io, runlog, simulate
+
+snakemake = globals()["snakemake"]
+log = runlog.setup(snakemake.log[0])
+w = snakemake.wildcards
+ds = simulate.test(snakemake.params.cfg, w.test, w.profile)
+io.write(ds, snakemake.output[0], stage="simulate", config=snakemake.params.cfg,
+         wildcards={"test": w.test, "profile": w.profile}, float32=True,
+         title=f"Closed-loop bench test {w.test}, {w.profile} steps")
+log.info("%s/%s: %d samples, %d tachometer pulses", w.test, w.profile, ds.time.size,
+         ds.sizes.get("pulse", 0))
