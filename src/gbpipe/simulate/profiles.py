@@ -14,8 +14,8 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["TESTS", "PROFILES", "RPM", "check_campaign", "check_sweep", "check_excitation", "step_reference",
-           "ramp_rate", "sweep_reference", "test_duration"]
+__all__ = ["TESTS", "PROFILES", "RPM", "check_campaign", "check_sweep", "check_excitation",
+           "step_reference", "ramp_rate", "sweep_reference", "test_duration"]
 
 TESTS = ("speed_up", "speed_down", "torque_up", "torque_down")
 PROFILES = ("square", "tapered")
