@@ -136,6 +136,7 @@ def validate(cfg: Mapping[str, Any], *, check_stability: bool = True) -> dict[st
     from gbpipe.simulate.profiles import check_campaign, check_excitation, check_sweep
 
     check_excitation(cfg)
+    _check_cycles(cfg)
     check_campaign(cfg)
     check_sweep(cfg)
     if check_stability:
@@ -158,6 +159,22 @@ def _coerce_numbers(value: Any) -> Any:
     if isinstance(value, list):
         return [_coerce_numbers(v) for v in value]
     return value
+
+
+def _check_cycles(cfg: Mapping[str, Any]) -> None:
+    # every cycle named for TSA must be a shaft, member or mesh of this gearbox
+    from gbpipe.kinematics import order_of
+
+    tsa = cfg.get("tsa")
+    if not tsa:
+        return
+    named = [(f"tsa.variants.{v}", c) for v, cs in tsa["variants"].items() for c in cs]
+    named += [("tsa.tests", c) for c in tsa["tests"]]
+    for field, cycle in named:
+        try:
+            order_of(cfg["gearbox"]["stages"], cycle)
+        except ValueError as exc:
+            raise ConfigError(f"config field '{field}': {exc}") from None
 
 
 def load(path: str | os.PathLike, *overlays: str | os.PathLike | Mapping[str, Any],
