@@ -100,6 +100,8 @@ def check_sweep(cfg: Mapping[str, Any]) -> None:
     sw = cfg.get("sweep")
     if not sw:
         return
+    if float(sw["settle"]) < 0:
+        raise _err("sweep.settle", f"duration must be >= 0, got {sw['settle']} s")
     if float(sw["duration"]) <= 0:
         raise _err("sweep.duration", f"duration must be positive, got {sw['duration']} s")
     if float(sw["rpm_end"]) == float(sw["rpm_start"]):
@@ -121,10 +123,6 @@ def check_excitation(cfg: Mapping[str, Any]) -> None:
         if m["stage"] > n:
             raise _err(f"excitation.mesh[{i}].stage",
                        f"stage {m['stage']} does not exist in a {n}-stage gearbox")
-
-
-def _levels(t: np.ndarray, t_knots: list[float], v_knots: list[float]) -> np.ndarray:
-    return np.interp(t, t_knots, v_knots)
 
 
 def step_reference(camp: Mapping[str, Any], test: str, profile: str,
@@ -152,12 +150,14 @@ def step_reference(camp: Mapping[str, Any], test: str, profile: str,
     ramp = abs(step) / ramp_rate(camp, quantity) if profile == "tapered" else 0.0
     t0, hold = float(camp["settle"]), float(camp["hold"])
     t1 = t0 + ramp + hold
-    # the square step: a ramp of zero length; the sample at the step instant takes the new
-    # level (zero-order hold convention of the simulator)
-    eps = 0.0 if ramp > 0 else 1e-12
-    knots_t = [0.0, t0, t0 + ramp + eps, t1, t1 + ramp + eps, duration]
-    knots_v = [0.0, 0.0, step, step, 0.0, 0.0]
-    delta = _levels(t, knots_t, knots_v)
+    if ramp > 0:
+        delta = np.interp(t, [0.0, t0, t0 + ramp, t1, t1 + ramp, duration],
+                          [0.0, 0.0, step, step, 0.0, 0.0])
+    else:
+        # square: the sample at the step instant takes the new level (the simulator holds
+        # u[k] over [k dt, (k+1) dt)); half a sample of slack absorbs rounding of k dt
+        half = 0.5 / fs
+        delta = np.where((t >= t0 - half) & (t < t1 - half), step, 0.0)
     nom = camp["nominal"]
     speed = np.full(n, float(nom["speed_rpm"]))
     torque = np.full(n, float(nom["torque"]))
