@@ -5,11 +5,52 @@ Every stage writes through :func:`write`, which
 * refuses a variable or coordinate without ``units`` and ``long_name``;
 * adds the provenance attributes of the data contract (``gbpipe_version``,
   ``config_sha256`` of the stage's config slice, ``created``, ``stage``, wildcard values)
-  and the CF-1.11 globals (``Conventions``, ``title``, ``source``, ``history``);
-* stores the relative ``time`` axis the CF way (``seconds since`` an arbitrary epoch,
-  ``axis: T``) and :func:`read` turns it back into plain seconds;
+  and the CF-1.11 globals (``Conventions``, ``title``, ``institution``, ``source``,
+  ``history``, ``references``);
+* stores the relative ``time`` axis the CF way and :func:`read` turns it back into plain
+  seconds;
 * writes to a temporary file in the target folder and renames it, so that a failed
-  stage never leaves a half-written output.
+  stage never leaves a half-written output, nor clobbers an existing one.
+
+The files pass ``compliance-checker --test=cf:1.11`` with no finding of any priority.
+:func:`write` gets there *generically*, never by knowing a stage; :func:`read` undoes each
+step, so that ``read(write(ds))`` gives back the producer's names, units and attributes.
+
+CF representation choices
+-------------------------
+Relative time
+    A coordinate named ``time`` must hold seconds from the record start (``units: s``).
+    It is stored as ``seconds since 2000-01-01 00:00:00`` (:data:`TIME_EPOCH`, arbitrary:
+    CF wants a reference date) with ``standard_name: time``, ``calendar: standard``,
+    ``axis: T`` and ``units_metadata: "leap_seconds: none"`` — a simulation or logger
+    clock counts SI seconds and never inserts leap seconds.
+Labelled dimensions
+    CF (§1.3, after the NUG) defines a coordinate variable — one named like its
+    dimension — as *numeric and strictly monotonic*. A dimension coordinate that is not
+    (string labels such as state or shaft names, or unsorted numbers) is stored as the
+    auxiliary coordinate ``<dim>_label`` (CF §6.1 "labels"), listed in the
+    ``coordinates`` attribute of the variables on that dimension and marked
+    ``gbpipe_labels_of: <dim>``; :func:`read` makes it the dimension coordinate again.
+Units
+    ``units`` must parse with UDUNITS-2. Our own spellings are mapped word by word
+    (``rev`` -> ``revolution``, ``deg`` -> ``degree``, ``Nm`` -> ``N m``). Two kinds of
+    quantity have no UDUNITS unit and are stored with ``units: "1"``, a ``comment`` that
+    says so, and the producer's string kept in ``gbpipe_units`` (restored by :func:`read`):
+
+    * levels in decibels (``dB``: 20 log10 of a magnitude ratio) — UDUNITS has no
+      logarithmic units;
+    * arrays whose elements have different units (``mixed (see ...)``, e.g. the
+      state-space matrices that mix rad, rad/s and N·m): CF has one unit per variable.
+      The per-row and per-column units are stored beside them as string coordinates
+      (``state_units``, ``input_units``, ``output_units``), so nothing is lost; ``"1"``
+      is a placeholder there, not a claim that the elements are dimensionless, and the
+      comment says exactly that.
+Encoding
+    NetCDF-4 (HDF5) with zlib level 4 on data variables; no ``_FillValue`` on coordinates
+    (CF forbids missing coordinate values), on integers or on strings; strings as
+    NetCDF-4 ``string`` (allowed since CF-1.9). The in-memory ``encoding`` of the input
+    (e.g. left over from a file it was read from) is ignored: this writer alone decides
+    the on-disk form.
 """
 
 from __future__ import annotations
@@ -18,6 +59,7 @@ import datetime as _dt
 import hashlib
 import json
 import os
+import re
 import tempfile
 from collections.abc import Mapping
 from pathlib import Path
@@ -28,12 +70,31 @@ import xarray as xr
 
 from gbpipe import __version__
 
-__all__ = ["write", "read", "config_sha256", "TIME_EPOCH"]
+__all__ = ["write", "read", "config_sha256", "cf_units", "TIME_EPOCH"]
 
 #: Epoch of the CF encoding of relative time axes. A record's t = 0 is its start; the
 #: epoch is only there because CF wants a reference date for a ``time`` coordinate.
 TIME_EPOCH = "2000-01-01 00:00:00"
 _TIME_UNITS = f"seconds since {TIME_EPOCH}"
+_TIME_ATTRS = {
+    "units": _TIME_UNITS,
+    "standard_name": "time",
+    "calendar": "standard",
+    "axis": "T",
+    "units_metadata": "leap_seconds: none",
+}
+# Spellings of "seconds" a producer may give the relative time axis.
+_SECONDS = {"s", "second", "seconds", "sec"}
+
+# Whole words of our unit strings that UDUNITS-2 does not know, and its word for them.
+_UNIT_WORDS = {"rev": "revolution", "revs": "revolution", "deg": "degree",
+               "degs": "degree", "Nm": "N m"}
+_UNIT_WORD = re.compile(r"[A-Za-z]+")
+
+# Attribute names this module adds to variables (and :func:`read` removes again).
+_LABELS_OF = "gbpipe_labels_of"
+_ORIGINAL_UNITS = "gbpipe_units"
+_LABEL_SUFFIX = "_label"
 
 
 def config_sha256(config_slice: Any) -> str:
@@ -61,6 +122,36 @@ def _jsonable(obj: Any) -> Any:
     raise TypeError(f"cannot hash object of type {type(obj).__name__} in a config slice")
 
 
+def cf_units(units: str) -> tuple[str, str | None]:
+    """The UDUNITS-2 form of one of our unit strings, and why it differs if it must.
+
+    Parameters
+    ----------
+    units : str
+        A producer's ``units`` attribute, e.g. ``"rev/min"``, ``"dB"``,
+        ``"mixed (see state_units)"``, ``"N m"``.
+
+    Returns
+    -------
+    cf : str
+        A UDUNITS-2 string: the same quantity respelled, or ``"1"`` for decibels and
+        for mixed units, which UDUNITS cannot express.
+    note : str or None
+        For ``"1"`` placeholders, the sentence :func:`write` adds to ``comment``.
+    """
+    text = str(units).strip()
+    if text.lower().startswith("mixed"):
+        return "1", (
+            f"units: the elements of this array have different units ({text}); CF allows "
+            "one unit per variable, so units is '1' as a placeholder, not a claim that the "
+            "values are dimensionless.")
+    if re.match(r"dB(?![A-Za-z])", text):
+        return "1", (
+            f"units: the values are levels in decibels ({text}), a logarithmic scale that "
+            "UDUNITS cannot express, so units is '1'.")
+    return _UNIT_WORD.sub(lambda m: _UNIT_WORDS.get(m.group(), m.group()), text), None
+
+
 def _check_metadata(ds: xr.Dataset) -> None:
     missing = [
         f"{name} ({', '.join(k for k in ('units', 'long_name') if k not in var.attrs)})"
@@ -72,15 +163,92 @@ def _check_metadata(ds: xr.Dataset) -> None:
             "every NetCDF variable needs 'units' and 'long_name' attributes; missing on: "
             + "; ".join(missing)
         )
+    if "time" in ds.coords and str(ds["time"].attrs["units"]).strip() not in _SECONDS:
+        raise ValueError(
+            f"coordinate 'time' must be seconds from the record start (units 's'); got "
+            f"units {ds['time'].attrs['units']!r}: convert it to seconds first")
+    for dim in ds.dims:
+        label = f"{dim}{_LABEL_SUFFIX}"
+        if dim in ds.coords and not _is_cf_coordinate(ds[dim]) and label in ds.variables:
+            raise ValueError(
+                f"dimension coordinate {dim!r} is not numeric and strictly monotonic, so it "
+                f"is stored as the CF label variable {label!r}, but the dataset already has "
+                f"a variable {label!r}: rename that variable")
+
+
+def _is_cf_coordinate(var: xr.DataArray) -> bool:
+    # CF §1.3: a coordinate variable is numeric, strictly monotonic, without missing values.
+    # Datetimes and timedeltas are encoded to numbers by xarray and are left to it.
+    if var.dtype.kind in "mM":
+        return True
+    if var.dtype.kind not in "iuf":
+        return False
+    values = np.asarray(var.values)
+    if values.ndim != 1 or not np.all(np.isfinite(values)):
+        return False
+    step = np.diff(values)
+    return bool(np.all(step > 0) or np.all(step < 0))
 
 
 def _attr_value(value: Any) -> Any:
     # NetCDF attributes take strings and numbers; anything else is stored as JSON text.
+    if isinstance(value, bool | np.bool_):
+        return int(value)
     if isinstance(value, str | int | float | np.number):
         return value
-    if isinstance(value, bool):
-        return int(value)
     return json.dumps(value, default=_jsonable)
+
+
+def _append(text: str | None, line: str) -> str:
+    return f"{text}\n{line}" if text else line
+
+
+def _cf_variables(out: xr.Dataset) -> xr.Dataset:
+    """Units, time axis and labelled dimensions in their CF form (see module docstring)."""
+    for name in out.variables:
+        attrs = {k: _attr_value(v) for k, v in out[name].attrs.items()}
+        if name == "time" and name in out.coords:
+            attrs.update(_TIME_ATTRS)
+        else:
+            units, note = cf_units(attrs["units"]) if "units" in attrs else (None, None)
+            if units is not None and units != attrs["units"]:
+                attrs[_ORIGINAL_UNITS] = attrs["units"]
+                attrs["units"] = units
+            if note:
+                attrs["comment"] = _append(attrs.get("comment"), note)
+        out[name].attrs = attrs
+    for dim in list(out.dims):
+        if dim in out.coords and not _is_cf_coordinate(out[dim]):
+            coord = out[dim]
+            attrs = {**coord.attrs, _LABELS_OF: dim}
+            out = out.drop_vars(dim).assign_coords(
+                {f"{dim}{_LABEL_SUFFIX}": (dim, coord.values, attrs)})
+    return out
+
+
+def _encoding(out: xr.Dataset, float32: bool) -> dict[str, dict[str, Any]]:
+    encoding: dict[str, dict[str, Any]] = {}
+    for name, var in out.variables.items():
+        enc: dict[str, Any] = {}
+        if name in out.coords:
+            enc["_FillValue"] = None
+        elif var.dtype.kind in "fc":
+            enc.update(zlib=True, complevel=4)
+            if float32 and var.dtype == np.float64:
+                enc["dtype"] = "float32"
+        elif var.dtype.kind in "iub":
+            enc.update(zlib=True, complevel=4)
+        if var.dtype.kind in "iubUS" or var.dtype == object:
+            enc["_FillValue"] = None
+        encoding[name] = enc
+    return encoding
+
+
+def _file_mode() -> int:
+    # mkstemp makes 0600 files; an output should get the usual 0666 & ~umask instead.
+    umask = os.umask(0)
+    os.umask(umask)
+    return 0o666 & ~umask
 
 
 def write(
@@ -99,17 +267,20 @@ def write(
     ----------
     ds : xarray.Dataset
         Every data variable and coordinate must carry ``units`` and ``long_name``.
-        A coordinate named ``time`` is taken as seconds from the record start.
+        A coordinate named ``time`` is taken as seconds from the record start and must
+        have ``units: s``. Not modified.
     path : path-like
-        Target file; its folder is created if needed.
+        Target file; its folder is created if needed. An existing file is replaced only
+        once the new one is complete.
     stage : str
         Name of the workflow stage that made the data.
     config : object, optional
-        The config slice the stage depends on; its SHA-256 is stored.
+        The config slice the stage depends on; its SHA-256 (:func:`config_sha256`) is
+        stored as ``config_sha256``.
     wildcards : mapping, optional
         Wildcard values of the job, stored as ``wildcard_<name>`` attributes.
     title : str, optional
-        Human-readable title; defaults to ``"gbpipe <stage>"``.
+        Human-readable title; defaults to the dataset's ``title`` or ``"gbpipe <stage>"``.
     float32 : bool, default False
         Store float64 data variables as float32 (coordinates stay float64).
 
@@ -121,21 +292,25 @@ def write(
     Raises
     ------
     ValueError
-        If a variable lacks ``units`` or ``long_name``.
+        If a variable lacks ``units`` or ``long_name``, if ``time`` is not in seconds, or
+        if a labelled dimension's ``<dim>_label`` name is already taken.
     """
     _check_metadata(ds)
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
     out = ds.copy()
+    # Encodings left over from a file the data came from would override ours (and may
+    # name coordinates that no longer exist): this writer alone decides the on-disk form.
+    out.encoding = {}
+    for var in out.variables.values():
+        var.encoding = {}
     now = _dt.datetime.now(_dt.UTC).replace(microsecond=0).isoformat()
-    history = out.attrs.get("history", "")
     out.attrs.update(
         {
             "Conventions": "CF-1.11",
             "title": title or out.attrs.get("title", f"gbpipe {stage}"),
             "institution": out.attrs.get("institution", "gbpipe"),
             "source": f"gbpipe {__version__} stage '{stage}'",
-            "history": (history + "\n" if history else "") + f"{now}: gbpipe {stage}",
+            "history": _append(out.attrs.get("history"), f"{now}: gbpipe {stage}"),
             "references": "Torque measurements from MW wind turbine gearboxes: "
             "a system identification approach",
             "gbpipe_version": __version__,
@@ -147,30 +322,15 @@ def write(
     for key, value in (wildcards or {}).items():
         out.attrs[f"wildcard_{key}"] = str(value)
     out.attrs = {k: _attr_value(v) for k, v in out.attrs.items()}
-    if "time" in out.coords:
-        out["time"].attrs.update(
-            {"units": _TIME_UNITS, "standard_name": "time", "calendar": "standard", "axis": "T"}
-        )
-    for name in out.variables:
-        out[name].attrs = {k: _attr_value(v) for k, v in out[name].attrs.items()}
-    encoding: dict[str, dict[str, Any]] = {}
-    for name, var in out.variables.items():
-        enc: dict[str, Any] = {}
-        if name in out.coords:
-            enc["_FillValue"] = None
-        elif var.dtype.kind in "fc":
-            enc.update(zlib=True, complevel=4)
-            if float32 and var.dtype == np.float64:
-                enc["dtype"] = "float32"
-        elif var.dtype.kind in "iub":
-            enc.update(zlib=True, complevel=4)
-        if var.dtype.kind in "iub" or var.dtype.kind in "US" or var.dtype == object:
-            enc["_FillValue"] = None
-        encoding[name] = enc
-    fd, tmp = tempfile.mkstemp(suffix=".nc.tmp", dir=path.parent)
+    out = _cf_variables(out)
+    encoding = _encoding(out, float32)
+
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
     os.close(fd)
     try:
         out.to_netcdf(tmp, engine="netcdf4", format="NETCDF4", encoding=encoding)
+        os.chmod(tmp, _file_mode())
         os.replace(tmp, path)
     finally:
         if os.path.exists(tmp):
@@ -179,9 +339,11 @@ def write(
 
 
 def read(path: str | os.PathLike) -> xr.Dataset:
-    """Read a gbpipe NetCDF file fully into memory.
+    """Read a gbpipe NetCDF file fully into memory, undoing the CF encoding of :func:`write`.
 
-    The relative ``time`` axis comes back as float seconds with ``units: s``.
+    The relative ``time`` axis comes back as float seconds with ``units: s``; labelled
+    dimensions get their string (or unsorted) coordinate back; units that :func:`write`
+    had to respell or replace come back as the producer wrote them.
 
     Parameters
     ----------
@@ -191,14 +353,38 @@ def read(path: str | os.PathLike) -> xr.Dataset:
     Returns
     -------
     xarray.Dataset
+
+    Raises
+    ------
+    FileNotFoundError
+        If there is no file at ``path``.
     """
     path = Path(path)
     if not path.is_file():
         raise FileNotFoundError(f"no NetCDF file at {path}: run the stage that makes it first")
     with xr.open_dataset(path, engine="netcdf4", decode_times=False) as ds:
         ds = ds.load()
+    for name in list(ds.variables):
+        attrs = dict(ds[name].attrs)
+        if _ORIGINAL_UNITS in attrs:
+            _, note = cf_units(attrs[_ORIGINAL_UNITS])
+            attrs["units"] = attrs.pop(_ORIGINAL_UNITS)
+            if note and "comment" in attrs:
+                comment = attrs["comment"].replace(note, "").rstrip("\n")
+                if comment:
+                    attrs["comment"] = comment
+                else:
+                    del attrs["comment"]
+        ds[name].attrs = attrs
+        ds[name].encoding.pop("coordinates", None)
+    for name in list(ds.variables):
+        if _LABELS_OF in ds[name].attrs:
+            label = ds[name]
+            dim = label.attrs[_LABELS_OF]
+            attrs = {k: v for k, v in label.attrs.items() if k != _LABELS_OF}
+            ds = ds.drop_vars(name).assign_coords({dim: (dim, label.values, attrs)})
     if "time" in ds.coords and str(ds["time"].attrs.get("units", "")).startswith("seconds since"):
         ds["time"].attrs["units"] = "s"
-        for key in ("standard_name", "calendar", "axis"):
+        for key in ("standard_name", "calendar", "axis", "units_metadata"):
             ds["time"].attrs.pop(key, None)
     return ds

@@ -9,7 +9,16 @@ def lib(*modules):
 
 
 def figure(n):
-    return [f"{RESULTS}/figures/fig{n:02d}.png", f"{RESULTS}/figures/fig{n:02d}.pdf"]
+    """Final files of figure n: PNG, PDF and its report caption (with key numbers)."""
+    stem = f"{RESULTS}/figures/fig{n:02d}"
+    return [f"{stem}.png", f"{stem}.pdf", f"{RESULTS}/report/fig{n:02d}.rst"]
+
+
+def figure_outputs(n, category):
+    """Rule outputs of figure n; the PNG goes into `snakemake --report`, captioned by the
+    RST file the same rule writes (the caption path is relative to this rules folder)."""
+    png, pdf, rst = figure(n)
+    return [report(png, caption=f"../../{rst}", category=category), pdf, rst]
 
 
 def all_targets():

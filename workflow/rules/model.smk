@@ -27,7 +27,7 @@ rule figures_model:
     params:
         model={k: config[k] for k in ("gearbox", "bench")},
     output:
-        figure(3) + figure(4) + figure(5),
+        figure_outputs(3, "Model") + figure_outputs(4, "Model") + figure_outputs(5, "Model"),
     log:
         f"{RESULTS}/logs/figures_model.log",
     script:

@@ -52,7 +52,7 @@ rule figures_tests:
                       p=config["figures"]["test_profile"]),
         code=lib("figures/time_plots.py", "figures/style.py"),
     output:
-        figure(7) + figure(8) + figure(9) + figure(10),
+        [f for n in (7, 8, 9, 10) for f in figure_outputs(n, "Test campaigns")],
     log:
         f"{RESULTS}/logs/figures_tests.log",
     script:
