@@ -1,0 +1,274 @@
+"""Benchmark: gbpipe.sysid against SIPPY (sippy-unipi) and nfoursid on the same data.
+
+Open loop: 4th-order SISO plant with two lightly damped resonances (0.1 fs, zeta 0.02;
+0.3 fs, zeta 0.01; zeros at +-0.5), white unit input, white output noise at 20 dB SNR, N = 1e4,
+1e5, 1e6. Every method runs in a fresh subprocess, so its peak memory is measured alone:
+``peak MB`` is the growth of the resident set (VmHWM after the call minus VmRSS before, with the
+high-water mark reset just before the call). ``FRF err`` is the maximum over 500 frequencies
+in (0, fs/2) of ``|G_est - G| / |G|``.
+
+Closed loop: the same plant under a PI controller (kp 0.3, ki 0.05) with a white reference and
+coloured noise (innovation model sharing the plant poles, predictor poles at radius 0.7) at
+20 dB SNR, N = 1e5; fit % of the simulated model against the noise-free plant output.
+
+Peers come from requirements-bench.txt (``pip install -r requirements-bench.txt``). A peer is
+run at the next N only when its time at the previous N, scaled linearly, stays under
+``--budget`` seconds and its memory estimate under 8 GB; otherwise it prints
+``skipped (est. ...)``.
+
+Usage: ``OMP_NUM_THREADS=1 python benchmarks/sysid.py [--budget 240] [--sizes 1e4 1e5 1e6]``
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+F_GRID = np.linspace(0.001, 0.499, 500)  # Hz, dt = 1 s
+HORIZON = 10  # MOESP/N4SID future (= past) window; also SIPPY SS_f and nfoursid block rows
+PBSID_PAST, PBSID_FUTURE = 50, 10
+
+
+def plant():
+    """The benchmark plant (discrete time, dt = 1): A, B, C, D."""
+    import scipy.signal as sig
+
+    poles = []
+    for f, zeta in ((0.1, 0.02), (0.3, 0.01)):
+        w = 2 * np.pi * f
+        s = -zeta * w + 1j * w * np.sqrt(1 - zeta**2)
+        poles += [np.exp(s), np.exp(np.conj(s))]
+    a = np.real(np.poly(poles))
+    b = np.array([1.0, 0.0, -0.25])
+    b *= a.sum() / b.sum()
+    A, B, C, _ = sig.tf2ss(b, a)
+    return A, B, C, np.zeros((1, 1))
+
+
+def frf(A, B, C, D, f):
+    z = np.exp(2j * np.pi * f)
+    n = A.shape[0]
+    g = np.linalg.solve(z[:, None, None] * np.eye(n) - A, np.broadcast_to(B, (f.size, n, 1)))
+    return (C @ g + D)[:, 0, 0]
+
+
+def make_open_loop(n: int, seed: int = 0):
+    from gbpipe.sysid import simulate_ss
+
+    rng = np.random.default_rng(seed)
+    u = rng.standard_normal((n, 1))
+    y0 = simulate_ss(*plant(), u)
+    y = y0 + 0.1 * y0.std() * rng.standard_normal((n, 1))  # 20 dB SNR
+    return u, y
+
+
+def make_closed_loop(n: int, seed: int = 1, snr_db: float = 20.0):
+    import scipy.signal as sig
+
+    from gbpipe.sysid import simulate_ss
+
+    A, B, C, D = plant()
+    K = sig.place_poles(A.T, C.T, 0.7 * np.exp(1j * np.angle(np.linalg.eigvals(A)))).gain_matrix.T
+    kp, ki = 0.3, 0.05
+    rng = np.random.default_rng(seed)
+    r = rng.standard_normal(n)
+    e0 = rng.standard_normal(n)
+
+    def run(e):
+        x = np.zeros(4)
+        xi = 0.0
+        u = np.empty(n)
+        y = np.empty(n)
+        c, b, k = C[0], B[:, 0], K[:, 0]
+        for t in range(n):
+            y[t] = c @ x + e[t]
+            err = r[t] - y[t]
+            u[t] = kp * err + xi
+            xi += ki * err
+            x = A @ x + b * u[t] + k * e[t]
+        return u, y
+
+    scale = 1.0
+    for _ in range(4):  # noise scale for the wanted SNR (feedback makes it a fixed point)
+        u, y = run(scale * e0)
+        y0 = simulate_ss(A, B, C, D, u[:, None])[:, 0]
+        scale *= np.sqrt(10 ** (-snr_db / 10) / (np.var(y - y0) / np.var(y0)))
+    u, y = run(scale * e0)
+    y0 = simulate_ss(A, B, C, D, u[:, None])[:, 0]
+    return u, y, y0, 10 * np.log10(np.var(y0) / np.var(y - y0))
+
+
+# ---------------------------------------------------------------- methods (run in workers)
+
+def _gbpipe(name):
+    def run(u, y):
+        from gbpipe import sysid
+
+        if name == "pbsid":
+            m = sysid.pbsid(u, y, 4, past=PBSID_PAST, future=PBSID_FUTURE)
+        else:
+            m = getattr(sysid, name)(u, y, 4, horizon=HORIZON)
+        return m.A, m.B, m.C, m.D
+    return run
+
+
+def _sippy(name):
+    def run(u, y):
+        import contextlib
+        import io
+
+        from sippy_unipi import system_identification
+
+        kw = {"SS_fixed_order": 4, "SS_f": HORIZON, "tsample": 1.0}
+        if name == "PARSIM-K":
+            kw["SS_p"] = HORIZON
+        with contextlib.redirect_stdout(io.StringIO()):
+            m = system_identification(y[:, 0], u[:, 0], name, **kw)
+        return np.asarray(m.A), np.asarray(m.B), np.asarray(m.C), np.asarray(m.D)
+    return run
+
+
+def _nfoursid(u, y):
+    import pandas as pd
+    from nfoursid.nfoursid import NFourSID
+
+    df = pd.DataFrame({"u": u[:, 0], "y": y[:, 0]})
+    nf = NFourSID(df, output_columns=["y"], input_columns=["u"], num_block_rows=HORIZON)
+    nf.subspace_identification()
+    ss, _ = nf.system_identification(rank=4)
+    return ss.a, ss.b, ss.c, ss.d
+
+
+METHODS = {
+    "gbpipe pbsid": _gbpipe("pbsid"),
+    "gbpipe moesp": _gbpipe("moesp"),
+    "gbpipe n4sid": _gbpipe("n4sid"),
+    "SIPPY N4SID": _sippy("N4SID"),
+    "SIPPY MOESP": _sippy("MOESP"),
+    "SIPPY PARSIM-K": _sippy("PARSIM-K"),
+    "nfoursid": _nfoursid,
+}
+# Peak memory a peer needs beyond O(N) (bytes, as a function of N): nfoursid takes a full
+# SVD of a (rows x N) matrix, whose right factor alone is N x N doubles.
+MEM_MODEL = {"nfoursid": lambda n: 8.0 * n * n}
+
+
+def _rss(field: str) -> float:
+    with open("/proc/self/status") as fh:
+        for line in fh:
+            if line.startswith(field):
+                return float(line.split()[1]) / 1024.0  # MB
+    return float("nan")
+
+
+def worker(method: str, path: str) -> None:
+    data = np.load(path)
+    u, y = data["u"], data["y"]
+    fn = METHODS[method]
+    # Import the method's modules before measuring (import cost is not identification).
+    try:
+        fn(u[:2000], y[:2000])
+    except Exception:  # noqa: BLE001 - warm-up only
+        pass
+    base = _rss("VmRSS")
+    try:
+        with open("/proc/self/clear_refs", "w") as fh:
+            fh.write("5")  # reset the peak-RSS counter (Linux >= 4.0)
+    except OSError:
+        pass
+    t0 = time.perf_counter()
+    A, B, C, D = fn(u, y)
+    elapsed = time.perf_counter() - t0
+    peak = _rss("VmHWM") - base
+    g = frf(*plant(), F_GRID)
+    err = float(np.max(np.abs(frf(A, B, C, D, F_GRID) - g) / np.abs(g)))
+    print(json.dumps({"time": elapsed, "peak_mb": peak, "total_mb": _rss("VmHWM"), "err": err}))
+
+
+def run_worker(method: str, path: Path, timeout: float) -> dict:
+    cmd = [sys.executable, __file__, "--worker", method, str(path)]
+    try:
+        out = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout, check=False)
+    except subprocess.TimeoutExpired:
+        return {"error": f"timeout > {timeout:.0f} s"}
+    lines = [ln for ln in out.stdout.splitlines() if ln.startswith("{")]
+    if out.returncode != 0 or not lines:
+        tail = (out.stderr.strip().splitlines() or ["?"])[-1]
+        return {"error": f"failed: {tail[:60]}"}
+    return json.loads(lines[-1])
+
+
+def closed_loop_table(n: int) -> None:
+    from gbpipe import sysid
+
+    u, y, y0, snr = make_closed_loop(n)
+    print(f"\nClosed loop, PI controller, white reference, N = {n:.0e}, SNR = {snr:.1f} dB "
+          "(coloured noise); fit % against the noise-free output")
+    print(f"{'method':<16}{'time s':>9}{'fit %':>9}{'FRF err':>10}")
+    g = frf(*plant(), F_GRID)
+    for name, call in (
+        ("gbpipe pbsid", lambda: sysid.pbsid(u, y, 4, past=20)),
+        ("gbpipe moesp", lambda: sysid.moesp(u, y, 4, horizon=HORIZON)),
+        ("gbpipe n4sid", lambda: sysid.n4sid(u, y, 4, horizon=HORIZON)),
+    ):
+        t0 = time.perf_counter()
+        m = call()
+        el = time.perf_counter() - t0
+        yh = m.simulate(u)[:, 0]
+        fit = 100 * (1 - np.linalg.norm(y0 - yh) / np.linalg.norm(y0 - y0.mean()))
+        err = np.max(np.abs(frf(m.A, m.B, m.C, m.D, F_GRID) - g) / np.abs(g))
+        print(f"{name:<16}{el:>9.3f}{fit:>9.2f}{err:>10.4f}")
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--worker", nargs=2, metavar=("METHOD", "DATA"), help=argparse.SUPPRESS)
+    ap.add_argument("--sizes", nargs="+", type=float, default=[1e4, 1e5, 1e6])
+    ap.add_argument("--budget", type=float, default=240.0,
+                    help="largest estimated run time (s) for which a peer is still run")
+    ap.add_argument("--methods", nargs="+", default=list(METHODS))
+    args = ap.parse_args()
+    if args.worker:
+        worker(*args.worker)
+        return
+    print(f"OMP_NUM_THREADS={os.environ.get('OMP_NUM_THREADS', 'unset')}, "
+          f"{os.cpu_count()} CPUs; open loop, 20 dB white output noise")
+    print(f"{'method':<16}{'N':>9}{'time s':>10}{'peak MB':>10}{'FRF err':>10}")
+    last: dict[str, tuple[int, float]] = {}
+    with tempfile.TemporaryDirectory() as tmp:
+        for n in (int(s) for s in args.sizes):
+            u, y = make_open_loop(n)
+            path = Path(tmp) / f"data_{n}.npz"
+            np.savez(path, u=u, y=y)
+            for method in args.methods:
+                est_mem = MEM_MODEL.get(method, lambda _n: 0.0)(n)
+                est_t = None
+                if method in last:
+                    n0, t0 = last[method]
+                    est_t = t0 * n / n0
+                if est_mem > 8e9:
+                    row = f"skipped (est. {est_mem / 1e9:.0f} GB: N x N SVD factor)"
+                elif est_t is not None and est_t > args.budget and not method.startswith("gb"):
+                    row = f"skipped (est. {est_t:.0f} s)"
+                else:
+                    res = run_worker(method, path, timeout=max(3 * args.budget, 60))
+                    if "error" in res:
+                        row = res["error"]
+                    else:
+                        last[method] = (n, res["time"])
+                        row = f"{res['time']:>10.3f}{res['peak_mb']:>10.1f}{res['err']:>10.4f}"
+                print(f"{method:<16}{n:>9.0e}{row if row[0] == ' ' else '  ' + row}",
+                      flush=True)
+    closed_loop_table(100_000)
+
+
+if __name__ == "__main__":
+    main()
