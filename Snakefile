@@ -27,6 +27,8 @@ include: "workflow/rules/common.smk"
 include: "workflow/rules/kinematics.smk"
 include: "workflow/rules/model.smk"
 include: "workflow/rules/simulate.smk"
+include: "workflow/rules/harmonics.smk"
+include: "workflow/rules/identify.smk"
 
 
 rule all:

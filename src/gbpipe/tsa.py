@@ -135,8 +135,10 @@ class _Plan:
     """
 
     def __init__(self, amap: _orders._AngleMap, cycle_order: float, n_cycles: int,
-                 samples_per_cycle: int | None, band_limit: float | None = 1.0) -> None:
+                 samples_per_cycle: int | None, band_limit: float | None = 1.0,
+                 averaging: str = "block") -> None:
         self.n = amap.n
+        self.sliding = averaging == "sliding"
         self.c = cycle_order
         self.N = n_cycles
         phi_end = cycle_order * amap.theta_end / _orders.TWO_PI
@@ -161,9 +163,12 @@ class _Plan:
         # Time -> angle: fractional sample index of every grid point, cycles 0..K-1.
         self.grid_pos = amap.grid_positions(M * cycle_order / _orders.TWO_PI, K * M)
         # Block structure: full blocks, plus a tail "block" = last N cycles if needed.
+        # Sliding: one mean per cycle, over the N cycles centred on it (clipped at the
+        # record ends), so a linear drift of amplitude or phase along the record cancels.
         self.B = K // n_cycles
         self.tail = K > self.B * n_cycles
-        self.n_rows = self.B + int(self.tail)
+        self.n_rows = K if self.sliding else self.B + int(self.tail)
+        self.start = np.clip(np.arange(K) - n_cycles // 2, 0, K - n_cycles)
         # Highest harmonic each mean cycle keeps: one the time sampling can carry in the
         # block's shortest cycle (h < band_limit * samples/2). Above it an angle-domain
         # mean holds only interpolation images, which would make the average a leaky,
@@ -171,9 +176,13 @@ class _Plan:
         self.keep = None
         if band_limit is not None:
             length = np.diff(bounds)
-            shortest = length[: self.B * n_cycles].reshape(self.B, n_cycles).min(axis=1)
-            if self.tail:
-                shortest = np.append(shortest, length[K - n_cycles:].min())
+            if self.sliding:
+                windows = np.lib.stride_tricks.sliding_window_view(length, n_cycles)
+                shortest = windows.min(axis=1)[self.start]
+            else:
+                shortest = length[: self.B * n_cycles].reshape(self.B, n_cycles).min(axis=1)
+                if self.tail:
+                    shortest = np.append(shortest, length[K - n_cycles:].min())
             h_max = np.floor(0.5 * band_limit * shortest)
             self.keep = np.arange(M // 2 + 1)[None, :] <= h_max[:, None]
         # Angle -> time: row (block) and position in the cycle of every valid sample.
@@ -182,7 +191,10 @@ class _Plan:
         k = np.floor(ph)
         u = (ph - k) * M
         k = k.astype(np.int64)
-        row = np.where(k < self.B * n_cycles, k // n_cycles, self.n_rows - 1)
+        if self.sliding:
+            row = np.minimum(k, K - 1)
+        else:
+            row = np.where(k < self.B * n_cycles, k // n_cycles, self.n_rows - 1)
         # Periodic cubic spline via flat padded rows: row r occupies [r (M+3), (r+1)(M+3))
         # with 1 wrapped coefficient before and 2 after, so 4-tap evaluation never leaves
         # its row and one 1-D map_coordinates call serves all blocks.
@@ -194,6 +206,10 @@ class _Plan:
     def mean_cycles(self, x_coef: np.ndarray) -> np.ndarray:
         xa = _orders._evaluate_spline(x_coef, self.grid_pos).reshape(self.K, self.M)
         N, B = self.N, self.B
+        if self.sliding:
+            csum = np.zeros((self.K + 1, self.M))
+            np.cumsum(xa, axis=0, out=csum[1:])
+            return (csum[self.start + N] - csum[self.start]) / N
         means = xa[: B * N].reshape(B, N, self.M).mean(axis=1)
         if self.tail:
             means = np.vstack([means, xa[self.K - N:].mean(axis=0)])
@@ -255,6 +271,7 @@ def residual(
     unbiased: bool = False,
     samples_per_cycle: int | None = None,
     band_limit: float | None = 1.0,
+    averaging: Literal["block", "sliding"] = "block",
     t0: float = 0.0,
     method: _orders.AngleMethod = "pchip",
     outside: Literal["keep", "nan"] = "keep",
@@ -290,6 +307,13 @@ def residual(
         times the Nyquist frequency at the block's highest speed. Higher harmonics of an
         angle-domain mean are interpolation images only; dropping them keeps the
         average an (almost) exact projection. None keeps all M/2 harmonics.
+    averaging : {"block", "sliding"}
+        ``"block"`` (default): Simcenter Testlab's blocks of ``n_cycles`` cycles, each
+        block's mean subtracted from its cycles. ``"sliding"``: every cycle gets the mean
+        of the ``n_cycles`` cycles centred on it (clipped at the ends); a linear drift of
+        the harmonic's amplitude or phase within the averaging span then cancels, which
+        matters for long cycles on a sweep (carrier-2 revolutions span hundreds of HSS
+        revolutions). Same cost, same (1 − 1/N) noise-power loss.
     t0 : float
         Time of the first sample [s].
     method : {"pchip", "cubic", "linear"}
@@ -319,7 +343,9 @@ def residual(
     x, n_cycles, amap = _validate(x, fs, pulse_times, n_cycles, pulses_per_rev, t0, method,
                                   outside)
     _check_band_limit(band_limit)
-    plan = _Plan(amap, c, n_cycles, samples_per_cycle, band_limit)
+    if averaging not in ("block", "sliding"):
+        raise ValueError(f"averaging must be 'block' or 'sliding'; got {averaging!r}")
+    plan = _Plan(amap, c, n_cycles, samples_per_cycle, band_limit, averaging)
     s, means = plan.synchronous(x)
     r = x - s
     if unbiased:
@@ -368,6 +394,7 @@ def residual_joint(
     tol: float = 3e-3,
     unbiased: bool = False,
     band_limit: float | None = 1.0,
+    averaging: Literal["block", "sliding"] = "block",
     t0: float = 0.0,
     method: _orders.AngleMethod = "pchip",
     outside: Literal["keep", "nan"] = "keep",
@@ -447,7 +474,10 @@ def residual_joint(
     x, _, amap = _validate(x, fs, pulse_times, Ns[0], pulses_per_rev, t0, method, outside)
     Ns = [_orders._as_count(N, "n_cycles", 2) for N in Ns]
     _check_band_limit(band_limit)
-    plans = [_Plan(amap, c, N, None, band_limit) for c, N in zip(orders, Ns, strict=True)]
+    if averaging not in ("block", "sliding"):
+        raise ValueError(f"averaging must be 'block' or 'sliding'; got {averaging!r}")
+    plans = [_Plan(amap, c, N, None, band_limit, averaging)
+             for c, N in zip(orders, Ns, strict=True)]
     loss = sum(1.0 / N for N in Ns)
     if unbiased and loss >= 1:
         raise ValueError(f"unbiased=True needs sum(1/n_cycles) < 1; got {loss:.3g}: use "

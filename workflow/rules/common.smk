@@ -10,8 +10,9 @@ def lib(*modules):
 
 def figure(n):
     """Final files of figure n: PNG, PDF and its report caption (with key numbers)."""
-    stem = f"{RESULTS}/figures/fig{n:02d}"
-    return [f"{stem}.png", f"{stem}.pdf", f"{RESULTS}/report/fig{n:02d}.rst"]
+    name = f"fig{n:02d}" if isinstance(n, int) else f"fig_{n}"
+    stem = f"{RESULTS}/figures/{name}"
+    return [f"{stem}.png", f"{stem}.pdf", f"{RESULTS}/report/{name}.rst"]
 
 
 def figure_outputs(n, category):
@@ -32,6 +33,8 @@ def all_targets():
     targets += expand(f"{RESULTS}/simulate/{{test}}_{{profile}}.nc", test=camp["tests"],
                       profile=camp["profiles"])
     targets.append(f"{RESULTS}/sweep/sweep.nc")
-    for n in (3, 4, 5, 7, 8, 9, 10):
+    targets.append(f"{RESULTS}/spectra/sweep_raw.nc")
+    targets += expand(f"{RESULTS}/tsa/{{v}}.nc", v=list(config["tsa"]["variants"]))
+    for n in (3, 4, 5, 7, 8, 9, 10, 11, 12, 13, 14, 15, 16, 17, "mode_band"):
         targets += figure(n)
     return targets

@@ -1,0 +1,62 @@
+rule spectra:
+    message:
+        "Power and order spectra vs rpm of the raw sweep (Fig 11)"
+    input:
+        sweep=f"{RESULTS}/sweep/sweep.nc",
+        code=lib("harmonics.py", "spectra.py", "orders.py", "io.py"),
+    params:
+        spectra=config["spectra"],
+    output:
+        f"{RESULTS}/spectra/sweep_raw.nc",
+    log:
+        f"{RESULTS}/logs/spectra.log",
+    benchmark:
+        f"{RESULTS}/benchmarks/spectra.tsv"
+    script:
+        "../scripts/spectra.py"
+
+
+rule tsa:
+    message:
+        "Harmonic removal by TSA on the sweep, variant {wildcards.variant}"
+    input:
+        sweep=f"{RESULTS}/sweep/sweep.nc",
+        bench=f"{RESULTS}/model/bench.nc",
+        code=lib("harmonics.py", "tsa.py", "removal.py", "spectra.py", "orders.py",
+                 "kinematics.py", "io.py"),
+    params:
+        tsa=lambda w: {"n_cycles": config["tsa"]["n_cycles"],
+                       "unbiased": config["tsa"].get("unbiased", False),
+                       "averaging": config["tsa"].get("averaging", "block"),
+                       "cycles": config["tsa"]["variants"][w.variant]},
+        spectra=config["spectra"],
+        stages=config["gearbox"]["stages"],
+        excitation=config["excitation"],
+    output:
+        f"{RESULTS}/tsa/{{variant}}.nc",
+    log:
+        f"{RESULTS}/logs/tsa/{{variant}}.log",
+    benchmark:
+        f"{RESULTS}/benchmarks/tsa/{{variant}}.tsv"
+    resources:
+        mem_mb=3000,
+    script:
+        "../scripts/tsa.py"
+
+
+rule figures_harmonics:
+    message:
+        "Figures 11-17 and the resonance-band check"
+    input:
+        raw=rules.spectra.output[0],
+        variants=expand(f"{RESULTS}/tsa/{{v}}.nc", v=list(config["tsa"]["variants"])),
+        code=lib("figures/waterfalls.py", "figures/style.py"),
+    params:
+        variants=list(config["tsa"]["variants"]),
+    output:
+        [f for n in range(11, 18) for f in figure_outputs(n, "Harmonic removal")]
+        + figure_outputs("mode_band", "Harmonic removal"),
+    log:
+        f"{RESULTS}/logs/figures_harmonics.log",
+    script:
+        "../scripts/figures_harmonics.py"

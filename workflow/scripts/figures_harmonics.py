@@ -1,0 +1,68 @@
+"""Rule `figures_harmonics`: figures 11-17 and the resonance-band check, with captions."""
+
+import numpy as np
+
+from gbpipe import io, runlog
+from gbpipe.figures.captions import write_caption
+from gbpipe.figures.waterfalls import fig_mode_band, fig_order_waterfall, fig_power_waterfall
+
+snakemake = globals()["snakemake"]
+log = runlog.setup(snakemake.log[0])
+out = snakemake.output
+raw = io.read(snakemake.input.raw)
+var = {n: io.read(p) for n, p in zip(snakemake.params.variants, snakemake.input.variants,
+                                      strict=True)}
+modes = var[next(iter(var))].mode_frequency.values
+vmax = fig_power_waterfall(raw, out[0], "Fig. 11 — torque power spectrum vs rpm, raw sweep (GB1)",
+                           modes=modes)
+f11 = raw.power.sum("frequency")
+write_caption(out[2], "Raw sweep waterfall", "paper Fig. 11",
+              "Power spectrum of the GB1 torque meter vs HSS speed: shaft orders and mesh "
+              "harmonics are diagonal lines, the bench resonance a vertical band.",
+              {"bench modes marked": ", ".join(f"{f:.1f}" for f in modes) + " Hz",
+               "speed range": f"{float(raw.rpm.min()):.0f}-{float(raw.rpm.max()):.0f} rpm",
+               "total power (mean over rpm)": f"{10 * np.log10(float(f11.mean())):.1f} dB"})
+paper = {"hss": (12, "10 HSS cycles"), "carrier2": (14, "10 planet-carrier-2 revolutions"),
+         "mesh2": (16, "10 stage-2 gear-mesh periods")}
+k = 3
+for name, (n, what) in paper.items():
+    if name not in var:
+        raise ValueError(f"figures 12-17 need TSA variant {name!r} in config tsa.variants")
+    ds = var[name]
+    fig_power_waterfall(ds, out[k], f"Fig. {n} — power spectrum of the residual after "
+                        f"averaging {what}", vmax=vmax, modes=modes)
+    marks = {"3×": 3.0, "GMF2": 5.3569, "GMF1": 0.9022}
+    fig_order_waterfall(ds, out[k + 3], f"Fig. {n + 1} — order spectrum of the residual after "
+                        f"averaging {what}", marks=marks)
+    numbers = {f"{fam} removed": f"{float(ds.attenuation.sel(family=fam)):.1f} dB "
+               f"(band measure {float(ds.attenuation_band.sel(family=fam)):.1f} dB)"
+               for fam in ds.family.values}
+    for m, f in enumerate(ds.mode_frequency.values):
+        ch = ds.mode_change_vs_rpm.isel(mode=m)
+        worst = int(np.nanargmax(np.abs(ch.values)))
+        numbers[f"mode {f:.1f} Hz band change"] = (
+            f"{float(ds.mode_change.isel(mode=m)):+.2f} dB overall (bins without a crossing); "
+            f"worst bin {float(ds.metric_rpm[worst]):.0f} rpm: {float(ch[worst]):+.2f} dB")
+    for j, label in ((0, "power"), (3, "order")):
+        write_caption(out[k + j + 2], f"Residual {label} spectrum, {name} TSA",
+                      f"paper Fig. {n + (j > 0)}",
+                      f"GB1 torque after subtracting the block average of {what} "
+                      f"(cycle order {ds.attrs['cycle_orders']}).", numbers)
+    k += 6
+fig_mode_band(var, out[k])
+numbers = {}
+for name, ds in var.items():
+    for m, f in enumerate(ds.mode_frequency.values):
+        numbers[f"{name}, mode {f:.1f} Hz"] = f"{float(ds.mode_change.isel(mode=m)):+.2f} dB"
+    if "cascade_attenuation" in ds:
+        for fam in ds.family.values:
+            numbers[f"{name}: {fam} joint vs cascade"] = (
+                f"{float(ds.attenuation.sel(family=fam)):.1f} dB vs "
+                f"{float(ds.cascade_attenuation.sel(family=fam)):.1f} dB (band measure "
+                f"{float(ds.attenuation_band.sel(family=fam)):.1f} vs "
+                f"{float(ds.cascade_attenuation_band.sel(family=fam)):.1f} dB)")
+write_caption(out[k + 2], "Does TSA remove a resonance?", "extension (the paper's open question)",
+              "Change in dB of the power in the band around each bench mode, per rpm bin and "
+              "TSA variant; crosses mark bins where a removed family passes through the band.",
+              numbers)
+log.info("wrote figures 11-17 and the mode-band figure")
