@@ -97,3 +97,9 @@ def test_carrier2_removes_mesh2_when_speed_is_steady(ci_cfg):
                                             "sample_rate": 4000.0}}))
     m = _run(cfg, sweep(cfg), ["carrier2"])
     assert float(m.attenuation.sel(family="mesh2")) >= 40.0
+
+
+def test_structural_modes_merge_twin_pairs():
+    f = harmonics.structural_modes([1.0, 27.3, 61.9, 62.4, 125.6, 130.4, 338.8, 338.8],
+                                   10.0, 400.0, 4.0)
+    np.testing.assert_allclose(f, [27.3, 62.15, 125.6, 130.4, 338.8])

@@ -17,8 +17,26 @@ import xarray as xr
 
 from gbpipe.kinematics import order_of
 
-__all__ = ["excitation_families", "removed_families", "cycle_orders", "waterfalls",
+__all__ = ["structural_modes", "excitation_families", "removed_families", "cycle_orders", "waterfalls",
            "remove", "variant_metrics"]
+
+
+def structural_modes(freqs: Sequence[float], f_min: float, f_max: float,
+                     merge_within: float) -> np.ndarray:
+    """Mode frequencies [Hz] to watch, close pairs merged into one band.
+
+    The bench's twin gearboxes give pairs of modes a fraction of a hertz apart (61.9 and
+    62.4 Hz); one band covers both, so pairs closer than ``merge_within`` become their mean.
+    """
+    f = np.sort(np.asarray(freqs, dtype=float))
+    f = f[(f > f_min) & (f < f_max)]
+    groups: list[list[float]] = []
+    for v in f:
+        if groups and v - groups[-1][-1] < merge_within:
+            groups[-1].append(v)
+        else:
+            groups.append([v])
+    return np.array([np.mean(g) for g in groups])
 
 
 def cycle_orders(stages: Sequence[Mapping[str, Any]], cycles: Sequence[str]) -> list[Fraction]:

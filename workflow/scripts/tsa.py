@@ -19,8 +19,8 @@ cycles = harmonics.cycle_orders(p.stages, p.tsa["cycles"])
 families = harmonics.removed_families(
     harmonics.excitation_families({"gearbox": {"stages": p.stages}, "excitation": p.excitation}),
     cycles)
-fm = bench.closed_mode_frequency.values
-modes = fm[(fm > 10.0) & (fm < spec["mode_max_frequency"])]
+modes = harmonics.structural_modes(bench.closed_mode_frequency.values, 10.0,
+                                   spec["mode_max_frequency"], spec["mode_half_width"])
 log.info("variant %s: cycles %s (orders %s); removed families %s", w.variant,
          p.tsa["cycles"], [f"{float(c):.4f}" for c in cycles], list(families))
 
