@@ -17,8 +17,8 @@ import xarray as xr
 
 from gbpipe.kinematics import order_of
 
-__all__ = ["structural_modes", "excitation_families", "removed_families", "cycle_orders", "waterfalls",
-           "remove", "variant_metrics"]
+__all__ = ["structural_modes", "excitation_families", "removed_families", "cycle_orders",
+           "waterfalls", "remove", "variant_metrics"]
 
 
 def structural_modes(freqs: Sequence[float], f_min: float, f_max: float,

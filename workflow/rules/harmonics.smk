@@ -19,6 +19,8 @@ rule spectra:
 rule tsa:
     message:
         "Harmonic removal by TSA on the sweep, variant {wildcards.variant}"
+    wildcard_constraints:
+        variant="|".join(config["tsa"]["variants"]),
     input:
         sweep=f"{RESULTS}/sweep/sweep.nc",
         bench=f"{RESULTS}/model/bench.nc",
