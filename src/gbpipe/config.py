@@ -168,7 +168,11 @@ def _check_cycles(cfg: Mapping[str, Any]) -> None:
     tsa = cfg.get("tsa")
     if not tsa:
         return
-    named = [(f"tsa.variants.{v}", c) for v, cs in tsa["variants"].items() for c in cs]
+    named = [(f"tsa.variants[{i}].cycles", c) for i, v in enumerate(tsa["variants"])
+             for c in v["cycles"]]
+    names = [v["name"] for v in tsa["variants"]]
+    if len(set(names)) != len(names):
+        raise ConfigError(f"config field 'tsa.variants': names must be unique, got {names}")
     named += [("tsa.tests", c) for c in tsa["tests"]]
     for field, cycle in named:
         try:

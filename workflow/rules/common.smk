@@ -34,7 +34,7 @@ def all_targets():
                       profile=camp["profiles"])
     targets.append(f"{RESULTS}/sweep/sweep.nc")
     targets.append(f"{RESULTS}/spectra/sweep_raw.nc")
-    targets += expand(f"{RESULTS}/tsa/{{v}}.nc", v=list(config["tsa"]["variants"]))
+    targets += expand(f"{RESULTS}/tsa/{{v}}.nc", v=list(TSA_VARIANTS))
     for n in (3, 4, 5, 7, 8, 9, 10, 11, 12, 13, 14, 15, 16, 17, "mode_band"):
         targets += figure(n)
     return targets + identify_targets()

@@ -1,3 +1,7 @@
+# TSA variant name -> cycles removed (config order kept: figures 12-17 use the first three)
+TSA_VARIANTS = {v["name"]: v["cycles"] for v in config["tsa"]["variants"]}
+
+
 rule spectra:
     message:
         "Power and order spectra vs rpm of the raw sweep (Fig 11)"
@@ -20,7 +24,7 @@ rule tsa:
     message:
         "Harmonic removal by TSA on the sweep, variant {wildcards.variant}"
     wildcard_constraints:
-        variant="|".join(config["tsa"]["variants"]),
+        variant="|".join(TSA_VARIANTS),
     input:
         sweep=f"{RESULTS}/sweep/sweep.nc",
         bench=f"{RESULTS}/model/bench.nc",
@@ -30,7 +34,7 @@ rule tsa:
         tsa=lambda w: {"n_cycles": config["tsa"]["n_cycles"],
                        "unbiased": config["tsa"].get("unbiased", False),
                        "averaging": config["tsa"].get("averaging", "block"),
-                       "cycles": config["tsa"]["variants"][w.variant]},
+                       "cycles": TSA_VARIANTS[w.variant]},
         spectra=config["spectra"],
         stages=config["gearbox"]["stages"],
         excitation=config["excitation"],
@@ -51,10 +55,12 @@ rule figures_harmonics:
         "Figures 11-17 and the resonance-band check"
     input:
         raw=rules.spectra.output[0],
-        variants=expand(f"{RESULTS}/tsa/{{v}}.nc", v=list(config["tsa"]["variants"])),
+        variants=expand(f"{RESULTS}/tsa/{{v}}.nc", v=list(TSA_VARIANTS)),
         code=lib("figures/waterfalls.py", "figures/style.py"),
     params:
-        variants=list(config["tsa"]["variants"]),
+        variants=list(TSA_VARIANTS),
+        n_cycles=config["tsa"]["n_cycles"],
+        stages=config["gearbox"]["stages"],
     output:
         [f for n in range(11, 18) for f in figure_outputs(n, "Harmonic removal")]
         + figure_outputs("mode_band", "Harmonic removal"),

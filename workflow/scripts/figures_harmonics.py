@@ -5,6 +5,7 @@ import numpy as np
 from gbpipe import io, runlog
 from gbpipe.figures.captions import write_caption
 from gbpipe.figures.waterfalls import fig_mode_band, fig_order_waterfall, fig_power_waterfall
+from gbpipe.kinematics import order_of
 
 snakemake = globals()["snakemake"]
 log = runlog.setup(snakemake.log[0])
@@ -22,16 +23,24 @@ write_caption(out[2], "Raw sweep waterfall", "paper Fig. 11",
               {"bench modes marked": ", ".join(f"{f:.1f}" for f in modes) + " Hz",
                "speed range": f"{float(raw.rpm.min()):.0f}-{float(raw.rpm.max()):.0f} rpm",
                "total power (mean over rpm)": f"{10 * np.log10(float(f11.mean())):.1f} dB"})
-paper = {"hss": (12, "10 HSS cycles"), "carrier2": (14, "10 planet-carrier-2 revolutions"),
-         "mesh2": (16, "10 stage-2 gear-mesh periods")}
+# Figures 12-17 show the first three TSA variants in config order (the paper's: hss,
+# carrier2, mesh2); another gearbox names its own cycles.
+DESCRIBE = {"hss": "HSS cycles", "carrier2": "planet-carrier-2 revolutions",
+            "mesh2": "stage-2 gear-mesh periods"}
+names = list(var)[:3]
+stages = snakemake.params.stages
+marks = {"3×": 3.0} | {f"GMF{i}": float(order_of(stages, f"mesh{i}"))
+                       for i in range(1, len(stages) + 1)}
+if len(names) < 3:
+    raise ValueError("figures 12-17 need three TSA variants in config tsa.variants")
 k = 3
-for name, (n, what) in paper.items():
-    if name not in var:
-        raise ValueError(f"figures 12-17 need TSA variant {name!r} in config tsa.variants")
+for n, name in zip((12, 14, 16), names, strict=True):
+    cyc = var[name].attrs["cycles"]
+    what = f"{snakemake.params.n_cycles} " + " + ".join(
+        DESCRIBE.get(c, f"{c} cycles") for c in cyc.split())
     ds = var[name]
     fig_power_waterfall(ds, out[k], f"Fig. {n} — power spectrum of the residual after "
                         f"averaging {what}", vmax=vmax, modes=modes)
-    marks = {"3×": 3.0, "GMF2": 5.3569, "GMF1": 0.9022}
     fig_order_waterfall(ds, out[k + 3], f"Fig. {n + 1} — order spectrum of the residual after "
                         f"averaging {what}", marks=marks)
     numbers = {f"{fam} removed": f"{float(ds.attenuation.sel(family=fam)):.1f} dB "

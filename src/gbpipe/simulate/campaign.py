@@ -247,6 +247,12 @@ def sweep(cfg: Mapping[str, Any]) -> xr.Dataset:
     check_sweep(cfg)
     check_excitation(cfg)
     t, w_ref, t_ref = sweep_reference(cfg["sweep"])
+    if "noise" in cfg["sweep"]:
+        # the sweep may carry its own noise levels (a measured-like bench record, where
+        # both motors ripple) over those of the identification campaign
+        from gbpipe.config import merge
+
+        cfg = {**cfg, "noise": merge(cfg["noise"], cfg["sweep"]["noise"])}
     ds = _simulate(cfg, t, w_ref, t_ref, 99, True)
     ds["rpm"] = ("time", ds.speed_gb1_hss.values / RPM,
                  {"units": "rev/min", "long_name": "GB1 HSS speed"})
