@@ -47,11 +47,17 @@ for n, name in zip((12, 14, 16), names, strict=True):
                f"(band measure {float(ds.attenuation_band.sel(family=fam)):.1f} dB)"
                for fam in ds.family.values}
     for m, f in enumerate(ds.mode_frequency.values):
-        ch = ds.mode_change_vs_rpm.isel(mode=m)
-        worst = int(np.nanargmax(np.abs(ch.values)))
-        numbers[f"mode {f:.1f} Hz band change"] = (
-            f"{float(ds.mode_change.isel(mode=m)):+.2f} dB overall (bins without a crossing); "
-            f"worst bin {float(ds.metric_rpm[worst]):.0f} rpm: {float(ch[worst]):+.2f} dB")
+        ch = ds.mode_change_vs_rpm.isel(mode=m).values
+        cross = ds.crossing.isel(mode=m).any("family").values.astype(bool)
+        free = np.where(cross, np.nan, np.abs(ch))
+        text = f"{float(ds.mode_change.isel(mode=m)):+.2f} dB overall (bins without a crossing)"
+        if np.isfinite(free).any():
+            w = int(np.nanargmax(free))
+            text += f"; worst such bin {float(ds.metric_rpm[w]):.0f} rpm: {ch[w]:+.2f} dB"
+        if cross.any():
+            text += (f"; {int(cross.sum())} bin(s) where a removed family crosses the band: "
+                     f"{', '.join(f'{c:+.1f}' for c in ch[cross])} dB (the harmonic itself)")
+        numbers[f"mode {f:.1f} Hz band change"] = text
     for j, label in ((0, "power"), (3, "order")):
         write_caption(out[k + j + 2], f"Residual {label} spectrum, {name} TSA",
                       f"paper Fig. {n + (j > 0)}",
