@@ -1,5 +1,7 @@
 # TSA variant name -> cycles removed (config order kept: figures 12-17 use the first three)
 TSA_VARIANTS = {v["name"]: v["cycles"] for v in config["tsa"]["variants"]}
+TSA_AVERAGING = {v["name"]: v.get("averaging", config["tsa"].get("averaging", "block"))
+                 for v in config["tsa"]["variants"]}
 
 
 rule spectra:
@@ -33,7 +35,7 @@ rule tsa:
     params:
         tsa=lambda w: {"n_cycles": config["tsa"]["n_cycles"],
                        "unbiased": config["tsa"].get("unbiased", False),
-                       "averaging": config["tsa"].get("averaging", "block"),
+                       "averaging": TSA_AVERAGING[w.variant],
                        "cycles": TSA_VARIANTS[w.variant]},
         spectra=config["spectra"],
         stages=config["gearbox"]["stages"],

@@ -38,6 +38,8 @@ for n, name in zip((12, 14, 16), names, strict=True):
     cyc = var[name].attrs["cycles"]
     what = f"{snakemake.params.n_cycles} " + " + ".join(
         DESCRIBE.get(c, f"{c} cycles") for c in cyc.split())
+    if var[name].attrs.get("averaging", "block") != "block":
+        what += f" ({var[name].attrs['averaging']} average)"
     ds = var[name]
     fig_power_waterfall(ds, out[k], f"Fig. {n} — power spectrum of the residual after "
                         f"averaging {what}", vmax=vmax, modes=modes)

@@ -41,6 +41,7 @@ if len(cycles) > 1:
         ds[f"cascade_{v}"] = mc[v].assign_attrs(
             long_name=mc[v].attrs["long_name"] + " (plain cascade)")
 ds.attrs.update(variant=w.variant, cycles=" ".join(p.tsa["cycles"]),
+                averaging=p.tsa.get("averaging", "block"),
                 cycle_orders=" ".join(f"{c.numerator}/{c.denominator}" for c in cycles))
 io.write(ds, snakemake.output[0], stage="tsa", config=dict(p), wildcards={"variant": w.variant},
          float32=True, title=f"TSA harmonic removal on the sweep, variant {w.variant}")
