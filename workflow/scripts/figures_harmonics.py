@@ -41,10 +41,10 @@ for n, name in zip((12, 14, 16), names, strict=True):
     if var[name].attrs.get("averaging", "block") != "block":
         what += f" ({var[name].attrs['averaging']} average)"
     ds = var[name]
-    fig_power_waterfall(ds, out[k], f"Fig. {n} — power spectrum of the residual after "
+    fig_power_waterfall(ds, out[k], f"Fig. {n} — power spectrum of the residual\nafter "
                         f"averaging {what}", vmax=vmax, modes=modes)
-    fig_order_waterfall(ds, out[k + 3], f"Fig. {n + 1} — order spectrum of the residual after "
-                        f"averaging {what}", marks=marks)
+    fig_order_waterfall(ds, out[k + 3], f"Fig. {n + 1} — order spectrum of the residual\n"
+                        f"after averaging {what}", marks=marks)
     numbers = {f"{fam} removed": f"{float(ds.attenuation.sel(family=fam)):.1f} dB "
                f"(band measure {float(ds.attenuation_band.sel(family=fam)):.1f} dB)"
                for fam in ds.family.values}
