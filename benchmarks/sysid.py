@@ -39,18 +39,9 @@ PBSID_PAST, PBSID_FUTURE = 50, 10
 
 def plant():
     """The benchmark plant (discrete time, dt = 1): A, B, C, D."""
-    import scipy.signal as sig
+    from gbpipe.sysid.examples import two_mode_plant
 
-    poles = []
-    for f, zeta in ((0.1, 0.02), (0.3, 0.01)):
-        w = 2 * np.pi * f
-        s = -zeta * w + 1j * w * np.sqrt(1 - zeta**2)
-        poles += [np.exp(s), np.exp(np.conj(s))]
-    a = np.real(np.poly(poles))
-    b = np.array([1.0, 0.0, -0.25])
-    b *= a.sum() / b.sum()
-    A, B, C, _ = sig.tf2ss(b, a)
-    return A, B, C, np.zeros((1, 1))
+    return two_mode_plant()
 
 
 def frf(A, B, C, D, f):
@@ -71,42 +62,11 @@ def make_open_loop(n: int, seed: int = 0):
 
 
 def make_closed_loop(n: int, seed: int = 1, snr_db: float = 20.0):
-    import scipy.signal as sig
+    from gbpipe.sysid.examples import closed_loop_data
 
-    from gbpipe.sysid import simulate_ss
+    u, y, y0, _, snr = closed_loop_data(n, snr_db, seed)
+    return u, y, y0, snr
 
-    A, B, C, D = plant()
-    K = sig.place_poles(A.T, C.T, 0.7 * np.exp(1j * np.angle(np.linalg.eigvals(A)))).gain_matrix.T
-    kp, ki = 0.3, 0.05
-    rng = np.random.default_rng(seed)
-    r = rng.standard_normal(n)
-    e0 = rng.standard_normal(n)
-
-    def run(e):
-        x = np.zeros(4)
-        xi = 0.0
-        u = np.empty(n)
-        y = np.empty(n)
-        c, b, k = C[0], B[:, 0], K[:, 0]
-        for t in range(n):
-            y[t] = c @ x + e[t]
-            err = r[t] - y[t]
-            u[t] = kp * err + xi
-            xi += ki * err
-            x = A @ x + b * u[t] + k * e[t]
-        return u, y
-
-    scale = 1.0
-    for _ in range(4):  # noise scale for the wanted SNR (feedback makes it a fixed point)
-        u, y = run(scale * e0)
-        y0 = simulate_ss(A, B, C, D, u[:, None])[:, 0]
-        scale *= np.sqrt(10 ** (-snr_db / 10) / (np.var(y - y0) / np.var(y0)))
-    u, y = run(scale * e0)
-    y0 = simulate_ss(A, B, C, D, u[:, None])[:, 0]
-    return u, y, y0, 10 * np.log10(np.var(y0) / np.var(y - y0))
-
-
-# ---------------------------------------------------------------- methods (run in workers)
 
 def _gbpipe(name):
     def run(u, y):

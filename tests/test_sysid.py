@@ -7,6 +7,7 @@ import scipy.signal as sig
 
 from gbpipe.sysid import SubspaceModel, moesp, n4sid, pbsid, simulate_ss
 from gbpipe.sysid._common import hankel_gram, stable_predictor_gain, window_r_factor
+from gbpipe.sysid.examples import closed_loop_data, innovation_gain, two_mode_plant
 
 METHODS = {
     "pbsid": lambda u, y, n, **kw: pbsid(u, y, n, past=kw.pop("past", 10), **kw),
@@ -14,20 +15,6 @@ METHODS = {
     "n4sid": lambda u, y, n, **kw: n4sid(u, y, n, horizon=kw.pop("horizon", 10), **kw),
 }
 FREQ = np.linspace(0.001, 0.499, 300)  # Hz at dt = 1 s
-
-
-def two_mode_plant(d=0.0):
-    """4th-order SISO plant: resonances at 0.1 and 0.3 (x fs), damping ratios 0.02 and 0.01."""
-    poles = []
-    for f, zeta in ((0.1, 0.02), (0.3, 0.01)):
-        w = 2 * np.pi * f
-        s = -zeta * w + 1j * w * np.sqrt(1 - zeta**2)
-        poles += [np.exp(s), np.exp(np.conj(s))]
-    a = np.real(np.poly(poles))
-    b = np.array([1.0, 0.0, -0.25])  # zeros at +-0.5, relative degree 2
-    b *= a.sum() / b.sum()  # unit static gain
-    A, B, C, _ = sig.tf2ss(b, a)
-    return A, B, C, np.array([[d]])
 
 
 def mimo_plant():
@@ -91,12 +78,6 @@ def test_noise_free_mimo_2x2_exact(method):
     assert frf_error(model, plant) < 1e-6
 
 
-def innovation_gain(A, C, radius=0.7):
-    """Kalman-like gain placing the predictor poles A - K C at ``radius`` (coloured noise)."""
-    poles = radius * np.exp(1j * np.angle(np.linalg.eigvals(A)))
-    return sig.place_poles(A.T, C.T, poles).gain_matrix.T
-
-
 @pytest.mark.parametrize("method", METHODS)
 def test_error_shrinks_with_record_length(method):
     # Innovation-form (coloured) noise at 20 dB SNR: y = G u + H e, H = C (qI - A)^-1 K + I.
@@ -117,42 +98,8 @@ def test_error_shrinks_with_record_length(method):
     assert errs[1] < 0.01
 
 
-def closed_loop_data(n_samples, snr_db, seed=3):
-    """PI loop around the plant; coloured noise from an innovation model sharing A."""
-    A, B, C, D = two_mode_plant()
-    K = innovation_gain(A, C)
-    kp, ki = 0.3, 0.05
-    rng = np.random.default_rng(seed)
-    r = rng.standard_normal(n_samples)
-    e0 = rng.standard_normal(n_samples)
-
-    def run(e):
-        x = np.zeros(4)
-        xi = 0.0
-        u = np.empty(n_samples)
-        y = np.empty(n_samples)
-        c, b, k = C[0], B[:, 0], K[:, 0]
-        for t in range(n_samples):
-            y[t] = c @ x + e[t]
-            err = r[t] - y[t]
-            u[t] = kp * err + xi
-            xi += ki * err
-            x = A @ x + b * u[t] + k * e[t]
-        return u, y
-
-    scale = 1.0
-    for _ in range(4):  # fixed point for the noise scale giving the wanted SNR
-        u, y = run(scale * e0)
-        y0 = simulate_ss(A, B, C, D, u[:, None])[:, 0]
-        ratio = np.var(y - y0) / np.var(y0)
-        scale *= np.sqrt(10 ** (-snr_db / 10) / ratio)
-    u, y = run(scale * e0)
-    y0 = simulate_ss(A, B, C, D, u[:, None])[:, 0]
-    return u, y, y0, (A, B, C, D)
-
-
 def test_closed_loop_pbsid_beats_moesp_n4sid():
-    u, y, y0, plant = closed_loop_data(20_000, snr_db=10)
+    u, y, y0, plant, _ = closed_loop_data(20_000, snr_db=10)
     err = {name: frf_error(fn(u, y, 4, **({"past": 20} if name == "pbsid" else {})), plant)
            for name, fn in METHODS.items()}
     # PBSID consistent under feedback; the open-loop projections are biased by it.
