@@ -113,7 +113,6 @@ def _excitation(cfg: Mapping[str, Any], names: list[str], angles: dict[str, np.n
 def _simulate(cfg: Mapping[str, Any], t: np.ndarray, speed_ref: np.ndarray,
               torque_ref: np.ndarray, noise_key: int, measured: bool) -> xr.Dataset:
     from gbpipe.model import bench_ss
-    from gbpipe.model.statespace import to_control
     from gbpipe.simulate.lsim import lsim
     from gbpipe.simulate.tacho import pulse_times, tooth_errors
 
@@ -131,7 +130,7 @@ def _simulate(cfg: Mapping[str, Any], t: np.ndarray, speed_ref: np.ndarray,
                      outputs)
     u = np.column_stack([speed_ref, torque_ref, ripple])
     x0 = steady_state(main, np.array([speed_ref[0], torque_ref[0], 0.0, 0.0]), speed_ref[0])
-    y, _ = lsim(to_control(main), u, dt, x0)
+    y, _ = lsim(main, u, dt, x0)
     ds = xr.Dataset(coords={"time": ("time", t, {"units": "s", "long_name": "time from record "
                                                  "start", "axis": "T"})})
     ds["speed_ref"] = ("time", speed_ref, {"units": "rad/s", "long_name": "HSS speed reference"})
@@ -154,7 +153,7 @@ def _simulate(cfg: Mapping[str, Any], t: np.ndarray, speed_ref: np.ndarray,
         angles[a] = np.concatenate([th[0] + w0 * t_pre, th])
     load = np.concatenate([np.full(n_pre, torque_ref[0]), torque_ref])
     e = _excitation(cfg, exc_names, angles, load)
-    ye, _ = lsim(to_control(ss.select(exc_names, outputs)), e, dt)
+    ye, _ = lsim(ss.select(exc_names, outputs), e, dt)
     ye = ye[n_pre:]
     sensor = noise["sensor"]
     for i, (name, (unit, long_name, kind)) in enumerate(SIGNALS.items()):

@@ -46,12 +46,14 @@ Algorithms
 from __future__ import annotations
 
 import warnings
-from typing import Literal
+from typing import TYPE_CHECKING, Literal
 
-import control
 import numpy as np
 import scipy.linalg
 from scipy.signal import lfilter
+
+if TYPE_CHECKING:  # python-control costs ~2.5 s to import: only when a control object comes
+    import control
 
 __all__ = ["lsim", "discretize_zoh"]
 
@@ -94,6 +96,11 @@ def discretize_zoh(
 
 
 def _as_statespace(sys: object) -> control.StateSpace:
+    if not hasattr(sys, "isdtime") and all(hasattr(sys, k) for k in "ABCD"):
+        # plain continuous-time matrices (e.g. gbpipe.model.NamedSS): no control needed
+        return sys
+    import control
+
     if isinstance(sys, control.StateSpace):
         return sys
     if isinstance(sys, control.LTI):
@@ -116,7 +123,7 @@ def _check_inputs(
         if not np.all(np.isfinite(mat)):
             raise ValueError(f"sys.{name} contains NaN or inf; fix the model before simulating")
 
-    discrete = sys.isdtime(strict=True)
+    discrete = bool(sys.isdtime(strict=True)) if hasattr(sys, "isdtime") else False
     if discrete:
         if sys.dt is True:  # unspecified sampling time: any dt gives the same samples
             dt = 1.0 if dt is None else dt
@@ -187,10 +194,12 @@ def lsim(
 
     Parameters
     ----------
-    sys : control.StateSpace
+    sys : control.StateSpace or object with A, B, C, D
         Continuous-time system (discretised exactly with ZOH at `dt`) or discrete-time
         system (used as is; its ``dt`` must match `dt` if both are given). Other
-        ``control.LTI`` objects are converted with ``control.ss``.
+        ``control.LTI`` objects are converted with ``control.ss``. Any other object with
+        ``A, B, C, D`` arrays (e.g. :class:`gbpipe.model.NamedSS`) is taken as continuous
+        time, without importing python-control.
     u : array_like, shape (n_samples, n_inputs) or (n_samples,)
         Input samples in the units of the model inputs (e.g. N·m). ``u[k]`` is held
         constant over ``[k dt, (k+1) dt)``. A 1-D array is accepted for a single input.
