@@ -1,10 +1,14 @@
+# library modules of the simulator (inputs of both simulation rules: editing them reruns)
+SIM_LIB = lib("simulate/campaign.py", "simulate/profiles.py", "simulate/lsim.py",
+              "simulate/tacho.py", "model/__init__.py", "model/statespace.py",
+              "model/drivetrain.py", "model/mechanics.py", "io.py")
+
+
 rule simulate:
     message:
         "Closed-loop test {wildcards.test} ({wildcards.profile} steps), clean and measured-like"
     input:
-        lib("simulate/campaign.py", "simulate/profiles.py", "simulate/lsim.py",
-            "simulate/tacho.py", "model/__init__.py", "model/statespace.py",
-            "model/drivetrain.py", "model/mechanics.py", "io.py"),
+        SIM_LIB,
     params:
         cfg={k: config[k] for k in ("seed", "gearbox", "bench", "campaign", "noise",
                                     "excitation", "tachometer")},
@@ -24,9 +28,7 @@ rule sweep:
     message:
         "Speed sweep at constant torque with harmonics and tachometer pulses"
     input:
-        lib("simulate/campaign.py", "simulate/profiles.py", "simulate/lsim.py",
-            "simulate/tacho.py", "model/__init__.py", "model/statespace.py",
-            "model/drivetrain.py", "model/mechanics.py", "io.py"),
+        SIM_LIB,
     params:
         cfg={k: config[k] for k in ("seed", "gearbox", "bench", "campaign", "noise",
                                     "excitation", "tachometer", "sweep")},

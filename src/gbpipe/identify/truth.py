@@ -24,7 +24,13 @@ from typing import Any
 
 import numpy as np
 
+from gbpipe.model import bench_ss, frf, modes
+
 __all__ = ["TORQUES", "truth_model", "true_modes", "truth_frf"]
+
+#: FRF of a truth model: ``gbpipe.model.frf`` (direct solve per frequency, exact on the
+#: weak cross paths).
+truth_frf = frf
 
 #: Motor torques usable as identification inputs -> closed-loop input that equals them when
 #: their own loop's gains are zero.
@@ -54,7 +60,6 @@ def truth_model(cfg: Mapping[str, Any], inputs: Sequence[str], outputs: Sequence
     ValueError
         An input that is not a motor torque, a repeated input, or an unknown output.
     """
-    from gbpipe.model import bench_ss
 
     inputs, outputs = list(inputs), list(outputs)
     bad = [u for u in inputs if u not in TORQUES]
@@ -85,26 +90,7 @@ def true_modes(A: np.ndarray, f_max: float, zeta_max: float = 0.2
     freq_hz, zeta : ndarray
         Natural frequencies [Hz] (ascending) and damping ratios [-].
     """
-    from gbpipe.model import modes
 
     f, z = modes(A)
     keep = (f <= f_max) & (z <= zeta_max)
     return f[keep], z[keep]
-
-
-def truth_frf(ss, f_hz: np.ndarray) -> np.ndarray:
-    """``C (jωI − A)⁻¹ B + D`` by one linear solve per frequency.
-
-    Not the modal shortcut of :func:`gbpipe.model.frf`: a cross path 45 dB below the
-    direct one (driving torque -> driven speed) is a small difference of modal terms, and
-    the eigenvector round-off of the modal form reaches tenths of a dB there -- a visible
-    share of the 1 dB tolerance.
-
-    Returns
-    -------
-    ndarray, complex, shape (n_freq, n_outputs, n_inputs)
-    """
-    f = np.atleast_1d(np.asarray(f_hz, dtype=float))
-    eye = np.eye(ss.A.shape[0])
-    return np.array([ss.C @ np.linalg.solve(2j * np.pi * fk * eye - ss.A, ss.B) + ss.D
-                     for fk in f])

@@ -198,6 +198,11 @@ def modes(A: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 def frf(ss: NamedSS, f_hz: np.ndarray) -> np.ndarray:
     """Frequency response ``C (jωI − A)⁻¹ B + D`` on a grid, by direct evaluation.
 
+    One linear solve per frequency, batched: a modal shortcut (diagonalise A once) is
+    faster but its eigenvector round-off reaches tenths of a dB on weak cross paths (the
+    bench's driving torque -> driven speed is 45 dB below the direct paths), a visible share
+    of the 1 dB tolerance of the identification metrics.
+
     Parameters
     ----------
     ss : NamedSS
@@ -209,18 +214,11 @@ def frf(ss: NamedSS, f_hz: np.ndarray) -> np.ndarray:
     ndarray, complex, shape (n_freq, n_outputs, n_inputs)
     """
     f = np.atleast_1d(np.asarray(f_hz, dtype=float))
-    # Hessenberg-free but vectorised: diagonalise once when A is well conditioned,
-    # else solve per frequency.
     n = ss.A.shape[0]
-    lam, V = np.linalg.eig(ss.A)
-    if np.linalg.cond(V) < 1e8:
-        Bt = np.linalg.solve(V, ss.B)
-        Ct = ss.C @ V
-        s = 2j * np.pi * f
-        G = np.einsum("oi,fi,ij->foj", Ct, 1.0 / (s[:, None] - lam[None, :]), Bt)
-        return G + ss.D[None]
-    eye = np.eye(n)
     out = np.empty((f.size, ss.C.shape[0], ss.B.shape[1]), dtype=complex)
-    for k, fk in enumerate(f):
-        out[k] = ss.C @ np.linalg.solve(2j * np.pi * fk * eye - ss.A, ss.B) + ss.D
+    for lo in range(0, f.size, 256):  # chunks bound the (chunk, n, n) stack
+        s = 2j * np.pi * f[lo:lo + 256]
+        M = s[:, None, None] * np.eye(n) - ss.A
+        X = np.linalg.solve(M, np.broadcast_to(ss.B, (s.size, *ss.B.shape)))
+        out[lo:lo + 256] = ss.C @ X + ss.D
     return out
