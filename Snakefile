@@ -1,8 +1,15 @@
 # gbpipe: torque and speed on a back-to-back gearbox bench -> dynamic models of the gearbox.
 # `snakemake -j2` reproduces everything; `snakemake --configfile config/ci.yaml` the CI run.
+import sys
+
 from snakemake.utils import min_version
 
 import gbpipe.config
+import gbpipe.io
+
+# workflow/lib holds the workflow's own helpers (not part of the gbpipe library)
+sys.path.insert(0, f"{workflow.basedir}/workflow/lib")
+import codedeps
 
 min_version("9.0")
 
@@ -15,7 +22,7 @@ configfile: "config/config.yaml"
 config.update(gbpipe.config.validate(config))
 
 RESULTS = "results"
-LIB = "src/gbpipe"
+SRC = "src"
 
 
 wildcard_constraints:
@@ -29,6 +36,13 @@ include: "workflow/rules/model.smk"
 include: "workflow/rules/simulate.smk"
 include: "workflow/rules/harmonics.smk"
 include: "workflow/rules/identify.smk"
+
+
+onstart:
+    # A job killed with SIGKILL cannot remove its temporary; the next run does, before any
+    # job writes (temporaries have one recognisable name, see gbpipe.io.atomic_path).
+    for stale in gbpipe.io.clean_temporaries(RESULTS):
+        print(f"removed stale temporary {stale}", file=sys.stderr)
 
 
 rule all:

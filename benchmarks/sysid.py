@@ -16,12 +16,18 @@ run at the next N only when its time at the previous N, scaled linearly, stays u
 ``--budget`` seconds and its memory estimate under 8 GB; otherwise it prints
 ``skipped (est. ...)``.
 
-Usage: ``OMP_NUM_THREADS=1 python benchmarks/sysid.py [--budget 240] [--sizes 1e4 1e5 1e6]``
+The plant, the closed-loop data and the reference simulator are the test fixtures of
+``tests/sysid/sysid_plants.py`` (one implementation; that folder is put on ``sys.path``).
+
+Usage: ``OMP_NUM_THREADS=1 python benchmarks/sysid.py [--budget 240] [--sizes 1e4 1e5 1e6]``;
+quick check: ``--sizes 1e4 --methods "gbpipe pbsid" --closed-loop 2e4``.
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
+import io
 import json
 import os
 import subprocess
@@ -32,6 +38,12 @@ from pathlib import Path
 
 import numpy as np
 
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests" / "sysid"))
+
+from sysid_plants import closed_loop_data, simulate, two_mode_plant  # noqa: E402
+
+from gbpipe import sysid  # noqa: E402
+
 F_GRID = np.linspace(0.001, 0.499, 500)  # Hz, dt = 1 s
 HORIZON = 10  # MOESP/N4SID future (= past) window; also SIPPY SS_f and nfoursid block rows
 PBSID_PAST, PBSID_FUTURE = 50, 10
@@ -39,8 +51,6 @@ PBSID_PAST, PBSID_FUTURE = 50, 10
 
 def plant():
     """The benchmark plant (discrete time, dt = 1): A, B, C, D."""
-    from gbpipe.sysid.examples import two_mode_plant
-
     return two_mode_plant()
 
 
@@ -52,26 +62,20 @@ def frf(A, B, C, D, f):
 
 
 def make_open_loop(n: int, seed: int = 0):
-    from gbpipe.sysid import simulate_ss
-
     rng = np.random.default_rng(seed)
     u = rng.standard_normal((n, 1))
-    y0 = simulate_ss(*plant(), u)
+    y0 = simulate(*plant(), u)
     y = y0 + 0.1 * y0.std() * rng.standard_normal((n, 1))  # 20 dB SNR
     return u, y
 
 
 def make_closed_loop(n: int, seed: int = 1, snr_db: float = 20.0):
-    from gbpipe.sysid.examples import closed_loop_data
-
     u, y, y0, _, snr = closed_loop_data(n, snr_db, seed)
     return u, y, y0, snr
 
 
 def _gbpipe(name):
     def run(u, y):
-        from gbpipe import sysid
-
         if name == "pbsid":
             m = sysid.pbsid(u, y, 4, past=PBSID_PAST, future=PBSID_FUTURE)
         else:
@@ -82,10 +86,7 @@ def _gbpipe(name):
 
 def _sippy(name):
     def run(u, y):
-        import contextlib
-        import io
-
-        from sippy_unipi import system_identification
+        from sippy_unipi import system_identification  # optional dependency (benchmark peer)
 
         kw = {"SS_fixed_order": 4, "SS_f": HORIZON, "tsample": 1.0}
         if name == "PARSIM-K":
@@ -97,8 +98,8 @@ def _sippy(name):
 
 
 def _nfoursid(u, y):
-    import pandas as pd
-    from nfoursid.nfoursid import NFourSID
+    import pandas as pd  # optional dependency (nfoursid's API)
+    from nfoursid.nfoursid import NFourSID  # optional dependency (benchmark peer)
 
     df = pd.DataFrame({"u": u[:, 0], "y": y[:, 0]})
     nf = NFourSID(df, output_columns=["y"], input_columns=["u"], num_block_rows=HORIZON)
@@ -167,8 +168,6 @@ def run_worker(method: str, path: Path, timeout: float) -> dict:
 
 
 def closed_loop_table(n: int) -> None:
-    from gbpipe import sysid
-
     u, y, y0, snr = make_closed_loop(n)
     print(f"\nClosed loop, PI controller, white reference, N = {n:.0e}, SNR = {snr:.1f} dB "
           "(coloured noise); fit % against the noise-free output")
@@ -195,6 +194,8 @@ def main() -> None:
     ap.add_argument("--budget", type=float, default=240.0,
                     help="largest estimated run time (s) for which a peer is still run")
     ap.add_argument("--methods", nargs="+", default=list(METHODS))
+    ap.add_argument("--closed-loop", type=float, default=1e5,
+                    help="samples of the closed-loop comparison (0: skip it)")
     args = ap.parse_args()
     if args.worker:
         worker(*args.worker)
@@ -227,7 +228,8 @@ def main() -> None:
                         row = f"{res['time']:>10.3f}{res['peak_mb']:>10.1f}{res['err']:>10.4f}"
                 print(f"{method:<16}{n:>9.0e}{row if row[0] == ' ' else '  ' + row}",
                       flush=True)
-    closed_loop_table(100_000)
+    if args.closed_loop:
+        closed_loop_table(int(args.closed_loop))
 
 
 if __name__ == "__main__":

@@ -1,4 +1,4 @@
-"""Benchmark of gbpipe.tsa.residual: time and peak memory vs record length.
+"""Benchmark of gbpipe.harmonics.residual: time and peak memory vs record length.
 
 A 400 -> 1120 rpm linear sweep sampled at 10 kHz (HSS orders 1-3, a 5.3569 mesh family,
 white noise), one pulse per HSS revolution; records of 0.3, 0.6 and 1.2 M samples
@@ -20,7 +20,7 @@ import tracemalloc
 
 import numpy as np
 
-from gbpipe import tsa
+from gbpipe.harmonics import residual, residual_joint
 
 MESH2 = 5.3569
 VARIANTS = {"hss": 1.0, "mesh2": MESH2, "carrier2": MESH2 / 114}
@@ -56,10 +56,10 @@ def main() -> None:
             best = np.inf
             for _ in range(args.repeat):
                 t = time.perf_counter()
-                _, info = tsa.residual(x, 10_000.0, p, c, return_info=True)
+                _, info = residual(x, 10_000.0, p, c, return_info=True)
                 best = min(best, time.perf_counter() - t)
             tracemalloc.start()
-            tsa.residual(x, 10_000.0, p, c)
+            residual(x, 10_000.0, p, c)
             peak = tracemalloc.get_traced_memory()[1]
             tracemalloc.stop()
             print(f"{name:>9} {n:>9} {best:>9.3f} {peak / 1e6:>10.1f} {peak / n:>9.0f} "
@@ -69,7 +69,7 @@ def main() -> None:
             x, p = sweep(n)
             for mode in ("cascade", "joint"):
                 t = time.perf_counter()
-                _, info = tsa.residual_joint(x, 10_000.0, p, [1.0, MESH2], mode=mode,
+                _, info = residual_joint(x, 10_000.0, p, [1.0, MESH2], mode=mode,
                                              return_info=True)
                 print(f"{mode:>9} {n:>9} {time.perf_counter() - t:>9.3f} "
                       f"passes={info.iterations}")

@@ -21,6 +21,7 @@ from fractions import Fraction
 from typing import Any
 
 import numpy as np
+import xarray as xr
 
 __all__ = [
     "Stage",
@@ -253,8 +254,6 @@ def frequencies(
         ``mesh``, the exact orders as ``*_order_numerator``/``*_order_denominator``, and
         ``stage_ratio``, ``total_ratio``. Orders are relative to the HSS.
     """
-    import xarray as xr
-
     st = parse_stages(stages)
     rpm = np.asarray(hss_rpm, dtype=float)
     if not np.all(np.isfinite(rpm)) or np.any(rpm < 0):

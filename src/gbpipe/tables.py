@@ -1,13 +1,15 @@
-"""Summary tables written as CSV (Table 2 of the paper and stage summaries)."""
+"""The paper's Table 2 (shaft and mesh frequencies) and its comparison with the teeth.
+
+Rows only: :func:`gbpipe.io.write_csv` writes them.
+"""
 
 from __future__ import annotations
 
-import os
-from pathlib import Path
+import json
 
 import xarray as xr
 
-__all__ = ["table2", "PAPER_TABLE2", "TABLE1_STAGES", "write_csv"]
+__all__ = ["table2", "PAPER_TABLE2", "TABLE1_STAGES"]
 
 #: Teeth of the SGRE 3.X 50 Hz gearbox (paper Table 1).
 TABLE1_STAGES = [
@@ -29,8 +31,6 @@ PAPER_TABLE2 = {
 
 
 def _stages_json(stages) -> str:
-    import json
-
     return json.dumps([dict(sorted(s.items())) for s in stages], sort_keys=True)
 
 
@@ -76,22 +76,3 @@ def table2(freq: xr.Dataset, stages) -> tuple[list[dict], list[str]]:
                 )
         rows.append(row)
     return rows, notes
-
-
-def write_csv(rows: list[dict], path: str | os.PathLike) -> Path:
-    """Write rows (dicts) to CSV atomically, columns in first-seen order."""
-    import csv
-    import tempfile
-
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    cols: list[str] = []
-    for r in rows:
-        cols += [k for k in r if k not in cols]
-    fd, tmp = tempfile.mkstemp(suffix=".csv.tmp", dir=path.parent)
-    with os.fdopen(fd, "w", newline="") as fh:
-        w = csv.DictWriter(fh, fieldnames=cols)
-        w.writeheader()
-        w.writerows(rows)
-    os.replace(tmp, path)
-    return path

@@ -3,9 +3,11 @@
 # reruns it) and the list of final targets.
 
 
-def lib(*modules):
-    """Library source files a stage depends on (Snakemake tracks only the script)."""
-    return [f"{LIB}/{m}" for m in modules]
+def code(script):
+    """Library source files `workflow/scripts/<script>` imports, transitively: the
+    `input.code` of its rule, so that editing any of them reruns the rule (Snakemake itself
+    tracks only the script)."""
+    return codedeps.closure(f"{workflow.basedir}/workflow/scripts/{script}", SRC)
 
 
 def figure(n):
@@ -15,11 +17,14 @@ def figure(n):
     return [f"{stem}.png", f"{stem}.pdf", f"{RESULTS}/report/{name}.rst"]
 
 
-def figure_outputs(n, category):
-    """Rule outputs of figure n; the PNG goes into `snakemake --report`, captioned by the
-    RST file the same rule writes (the caption path is relative to this rules folder)."""
+def figure_outputs(n, category, name=None):
+    """Named rule outputs of figure n: `<name>_png` (into `snakemake --report`, captioned by
+    the RST file the same rule writes; the caption path is relative to this rules folder),
+    `<name>_pdf` and `<name>_caption`. `name` defaults to `fig<n>`."""
     png, pdf, rst = figure(n)
-    return [report(png, caption=f"../../{rst}", category=category), pdf, rst]
+    name = name or f"fig{n}"
+    return {f"{name}_png": report(png, caption=f"../../{rst}", category=category),
+            f"{name}_pdf": pdf, f"{name}_caption": rst}
 
 
 def all_targets():
@@ -28,6 +33,7 @@ def all_targets():
         f"{RESULTS}/tables/table2.csv",
         f"{RESULTS}/model/gearbox.nc",
         f"{RESULTS}/model/bench.nc",
+        f"{RESULTS}/model/truth.nc",
     ]
     camp = config["campaign"]
     targets += expand(f"{RESULTS}/simulate/{{test}}_{{profile}}.nc", test=camp["tests"],

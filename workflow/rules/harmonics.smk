@@ -1,7 +1,6 @@
 # TSA variant name -> cycles removed (config order kept: figures 12-17 use the first three)
 TSA_VARIANTS = {v["name"]: v["cycles"] for v in config["tsa"]["variants"]}
-TSA_AVERAGING = {v["name"]: v.get("averaging", config["tsa"].get("averaging", "block"))
-                 for v in config["tsa"]["variants"]}
+TSA_AVERAGING = {v["name"]: v["averaging"] for v in config["tsa"]["variants"]}
 
 
 rule spectra:
@@ -9,11 +8,11 @@ rule spectra:
         "Power and order spectra vs rpm of the raw sweep (Fig 11)"
     input:
         sweep=f"{RESULTS}/sweep/sweep.nc",
-        code=lib("harmonics.py", "spectra.py", "orders.py", "io.py"),
+        code=code("spectra.py"),
     params:
         spectra=config["spectra"],
     output:
-        f"{RESULTS}/spectra/sweep_raw.nc",
+        nc=f"{RESULTS}/spectra/sweep_raw.nc",
     log:
         f"{RESULTS}/logs/spectra.log",
     benchmark:
@@ -30,18 +29,17 @@ rule tsa:
     input:
         sweep=f"{RESULTS}/sweep/sweep.nc",
         bench=f"{RESULTS}/model/bench.nc",
-        code=lib("harmonics.py", "tsa.py", "removal.py", "spectra.py", "orders.py",
-                 "kinematics.py", "io.py"),
+        code=code("tsa.py"),
     params:
         tsa=lambda w: {"n_cycles": config["tsa"]["n_cycles"],
-                       "unbiased": config["tsa"].get("unbiased", False),
+                       "unbiased": config["tsa"]["unbiased"],
                        "averaging": TSA_AVERAGING[w.variant],
                        "cycles": TSA_VARIANTS[w.variant]},
         spectra=config["spectra"],
         stages=config["gearbox"]["stages"],
         excitation=config["excitation"],
     output:
-        f"{RESULTS}/tsa/{{variant}}.nc",
+        nc=f"{RESULTS}/tsa/{{variant}}.nc",
     log:
         f"{RESULTS}/logs/tsa/{{variant}}.log",
     benchmark:
@@ -56,16 +54,16 @@ rule figures_harmonics:
     message:
         "Figures 11-17 and the resonance-band check"
     input:
-        raw=rules.spectra.output[0],
+        raw=rules.spectra.output.nc,
         variants=expand(f"{RESULTS}/tsa/{{v}}.nc", v=list(TSA_VARIANTS)),
-        code=lib("figures/waterfalls.py", "figures/style.py"),
+        code=code("figures_harmonics.py"),
     params:
         variants=list(TSA_VARIANTS),
         n_cycles=config["tsa"]["n_cycles"],
         stages=config["gearbox"]["stages"],
     output:
-        [f for n in range(11, 18) for f in figure_outputs(n, "Harmonic removal")]
-        + figure_outputs("mode_band", "Harmonic removal"),
+        **{k: v for n in range(11, 18) for k, v in figure_outputs(n, "Harmonic removal").items()},
+        **figure_outputs("mode_band", "Harmonic removal", name="mode_band"),
     log:
         f"{RESULTS}/logs/figures_harmonics.log",
     script:

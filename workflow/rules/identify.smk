@@ -1,10 +1,7 @@
 # Identification stage (paper section 3, Fig 6, and its future work: identification after
-# harmonic removal). tsa_tests -> identify {test}_{profile}_{method} -> table + figures.
-
-
-
-ID_PARTNER = {"speed_up": "speed_down", "speed_down": "speed_up",
-              "torque_up": "torque_down", "torque_down": "torque_up"}
+# harmonic removal). model (truth.nc) + simulate + tsa_tests -> identify
+# {test}_{profile}_{method} -> table + figures.
+from gbpipe.identify import VALIDATION_PARTNER
 
 
 def _id_signals():
@@ -13,13 +10,6 @@ def _id_signals():
     for p in config["identify"]["pairings"]:
         names += [n for n in p["inputs"] + p["outputs"] if n not in names]
     return names
-
-
-def _id_cfg():
-    # config slice of `identify`: the truth needs gearbox + bench, detrending the settle time
-    return {"gearbox": config["gearbox"], "bench": config["bench"],
-            "campaign": {"settle": config["campaign"]["settle"]},
-            "identify": config["identify"]}
 
 
 def _id_jobs():
@@ -34,7 +24,7 @@ def _bandwidth_figure():
 
 
 def identify_targets():
-    """Final targets of the identification stage (for the lead's `all_targets`)."""
+    """Final targets of the identification stage (for `all_targets`)."""
     return (_id_jobs() + [f"{RESULTS}/tables/identification.csv"] + figure(6)
             + _bandwidth_figure())
 
@@ -45,16 +35,14 @@ rule tsa_tests:
         "({wildcards.profile}) record, for identification"
     input:
         record=f"{RESULTS}/simulate/{{test}}_{{profile}}.nc",
-        code=lib("identify/prepare.py", "identify/stage.py", "tsa.py", "orders.py",
-                 "kinematics.py", "io.py"),
+        code=code("tsa_tests.py"),
     params:
-        cfg=lambda w: {"tsa": {k: config["tsa"][k] for k in ("n_cycles", "tests", "unbiased")
-                               if k in config["tsa"]},
+        cfg=lambda w: {"tsa": {k: config["tsa"][k] for k in ("n_cycles", "tests", "unbiased")},
                        "stages": config["gearbox"]["stages"], "signals": _id_signals(),
-                       "keep_below": config["identify"].get("tsa_keep_below", 0.5)},
+                       "keep_below": config["identify"]["tsa_keep_below"]},
         cycles=lambda w: "+".join(config["tsa"]["tests"]),
     output:
-        f"{RESULTS}/tsa/tests/{{test}}_{{profile}}.nc",
+        nc=f"{RESULTS}/tsa/tests/{{test}}_{{profile}}.nc",
     log:
         f"{RESULTS}/logs/tsa_tests/{{test}}_{{profile}}.log",
     benchmark:
@@ -73,18 +61,18 @@ rule identify:
         method="pbsid|moesp|n4sid",
     input:
         record=f"{RESULTS}/simulate/{{test}}_{{profile}}.nc",
-        validation=lambda w: f"{RESULTS}/simulate/{ID_PARTNER[w.test]}_{w.profile}.nc",
+        validation=lambda w: f"{RESULTS}/simulate/{VALIDATION_PARTNER[w.test]}_{w.profile}.nc",
         tsa_record=f"{RESULTS}/tsa/tests/{{test}}_{{profile}}.nc",
-        tsa_validation=lambda w: f"{RESULTS}/tsa/tests/{ID_PARTNER[w.test]}_{w.profile}.nc",
-        code=lib("identify/__init__.py", "identify/prepare.py", "identify/truth.py",
-                 "identify/metrics.py", "identify/stage.py", "sysid/__init__.py",
-                 "sysid/_common.py", "sysid/pbsid.py", "sysid/moesp.py", "sysid/n4sid.py",
-                 "sysid/result.py", "model/__init__.py", "model/statespace.py",
-                 "model/drivetrain.py", "model/mechanics.py", "io.py"),
+        tsa_validation=lambda w: (
+            f"{RESULTS}/tsa/tests/{VALIDATION_PARTNER[w.test]}_{w.profile}.nc"),
+        truth=rules.model.output.truth,
+        code=code("identify.py"),
     params:
-        cfg=lambda w: _id_cfg(),
+        # the truth comes from truth.nc (the model stage): no gearbox or bench here
+        cfg=lambda w: {"campaign": {"settle": config["campaign"]["settle"]},
+                       "identify": config["identify"]},
     output:
-        f"{RESULTS}/identify/{{test}}_{{profile}}_{{method}}.nc",
+        nc=f"{RESULTS}/identify/{{test}}_{{profile}}_{{method}}.nc",
     log:
         f"{RESULTS}/logs/identify/{{test}}_{{profile}}_{{method}}.log",
     benchmark:
@@ -100,13 +88,13 @@ rule identification_table:
         "Table: match bandwidth, fit and modes of every variant x method x pairing x version"
     input:
         models=_id_jobs(),
-        code=lib("identify/stage.py", "tables.py", "io.py"),
+        code=code("identification_table.py"),
     output:
-        f"{RESULTS}/tables/identification.csv",
+        table=f"{RESULTS}/tables/identification.csv",
     log:
         f"{RESULTS}/logs/identification_table.log",
     script:
-        "../scripts/identify.py"
+        "../scripts/identification_table.py"
 
 
 rule figures_identify:
@@ -114,16 +102,16 @@ rule figures_identify:
         "Figure 6 (identified vs true Bode magnitude, best case) and match bandwidth figure"
     input:
         models=_id_jobs(),
-        table=f"{RESULTS}/tables/identification.csv",
-        code=lib("figures/identification_plots.py", "figures/style.py",
-                 "figures/captions.py"),
+        table=rules.identification_table.output.table,
+        code=code("figures_identify.py"),
     params:
         best=lambda w: config["identify"]["best"],
     output:
-        figure_outputs(6, "Identification")
-        + [report(_bandwidth_figure()[0],
-                  caption=f"../../{_bandwidth_figure()[2]}", category="Identification")]
-        + _bandwidth_figure()[1:],
+        **figure_outputs(6, "Identification"),
+        bandwidth_png=report(_bandwidth_figure()[0], caption=f"../../{_bandwidth_figure()[2]}",
+                             category="Identification"),
+        bandwidth_pdf=_bandwidth_figure()[1],
+        bandwidth_caption=_bandwidth_figure()[2],
     log:
         f"{RESULTS}/logs/figures_identify.log",
     script:

@@ -2,10 +2,10 @@ rule kinematics:
     message:
         "Shaft speeds, gear-mesh frequencies and orders (Table 2)"
     input:
-        lib("kinematics.py", "io.py", "tables.py"),
+        code=code("kinematics.py"),
     params:
-        gearbox={"stages": config["gearbox"]["stages"], "name": config["gearbox"].get("name", "")},
-        hss_rpm=config.get("campaign", {}).get("nominal", {}).get("speed_rpm", 1120.0),
+        gearbox={"stages": config["gearbox"]["stages"], "name": config["gearbox"]["name"]},
+        hss_rpm=config["campaign"]["nominal"]["speed_rpm"],
     output:
         nc=f"{RESULTS}/kinematics/frequencies.nc",
         table=f"{RESULTS}/tables/table2.csv",

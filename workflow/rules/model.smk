@@ -1,14 +1,17 @@
 rule model:
     message:
-        "Torsional models of one gearbox and of the back-to-back bench (Figs 3-5)"
+        "Torsional models of one gearbox and of the back-to-back bench (Figs 3-5), and the "
+        "true FRFs and modes of every identification pairing"
     input:
-        lib("model/__init__.py", "model/mechanics.py", "model/drivetrain.py",
-            "model/statespace.py", "model/dataset.py", "io.py"),
+        code=code("model.py"),
     params:
         model={k: config[k] for k in ("gearbox", "bench", "model")},
+        # the identification grid and mode limits of the truth (identify reads truth.nc)
+        truth={k: config["identify"][k] for k in ("pairings", "frf", "zeta_max")},
     output:
         gearbox=f"{RESULTS}/model/gearbox.nc",
         bench=f"{RESULTS}/model/bench.nc",
+        truth=f"{RESULTS}/model/truth.nc",
     log:
         f"{RESULTS}/logs/model.log",
     benchmark:
@@ -23,11 +26,13 @@ rule figures_model:
     input:
         gearbox=rules.model.output.gearbox,
         bench=rules.model.output.bench,
-        code=lib("figures/model_plots.py", "figures/topology.py", "figures/style.py"),
+        code=code("figures_model.py"),
     params:
         model={k: config[k] for k in ("gearbox", "bench")},
     output:
-        figure_outputs(3, "Model") + figure_outputs(4, "Model") + figure_outputs(5, "Model"),
+        **figure_outputs(3, "Model"),
+        **figure_outputs(4, "Model"),
+        **figure_outputs(5, "Model"),
     log:
         f"{RESULTS}/logs/figures_model.log",
     script:

@@ -1,19 +1,13 @@
-# library modules of the simulator (inputs of both simulation rules: editing them reruns)
-SIM_LIB = lib("simulate/campaign.py", "simulate/profiles.py", "simulate/lsim.py",
-              "simulate/tacho.py", "model/__init__.py", "model/statespace.py",
-              "model/drivetrain.py", "model/mechanics.py", "io.py")
-
-
 rule simulate:
     message:
         "Closed-loop test {wildcards.test} ({wildcards.profile} steps), clean and measured-like"
     input:
-        SIM_LIB,
+        code=code("simulate.py"),
     params:
         cfg={k: config[k] for k in ("seed", "gearbox", "bench", "campaign", "noise",
                                     "excitation", "tachometer")},
     output:
-        f"{RESULTS}/simulate/{{test}}_{{profile}}.nc",
+        nc=f"{RESULTS}/simulate/{{test}}_{{profile}}.nc",
     log:
         f"{RESULTS}/logs/simulate/{{test}}_{{profile}}.log",
     benchmark:
@@ -28,12 +22,12 @@ rule sweep:
     message:
         "Speed sweep at constant torque with harmonics and tachometer pulses"
     input:
-        SIM_LIB,
+        code=code("sweep.py"),
     params:
         cfg={k: config[k] for k in ("seed", "gearbox", "bench", "campaign", "noise",
                                     "excitation", "tachometer", "sweep")},
     output:
-        f"{RESULTS}/sweep/sweep.nc",
+        nc=f"{RESULTS}/sweep/sweep.nc",
     log:
         f"{RESULTS}/logs/sweep.log",
     benchmark:
@@ -52,9 +46,12 @@ rule figures_tests:
                      p=config["figures"]["test_profile"]),
         torque=expand(f"{RESULTS}/simulate/torque_{{d}}_{{p}}.nc", d=["up", "down"],
                       p=config["figures"]["test_profile"]),
-        code=lib("figures/time_plots.py", "figures/style.py"),
+        code=code("figures_tests.py"),
     output:
-        [f for n in (7, 8, 9, 10) for f in figure_outputs(n, "Test campaigns")],
+        **figure_outputs(7, "Test campaigns"),
+        **figure_outputs(8, "Test campaigns"),
+        **figure_outputs(9, "Test campaigns"),
+        **figure_outputs(10, "Test campaigns"),
     log:
         f"{RESULTS}/logs/figures_tests.log",
     script:

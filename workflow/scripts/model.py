@@ -1,10 +1,11 @@
-"""Rule `model`: state-space models, modes and FRFs of one gearbox and of the bench."""
+"""Rule `model`: state-space models, modes and FRFs of one gearbox and of the bench, and the
+true FRFs and modes of every identification pairing (read by the identify stage)."""
 
-from gbpipe import io, model, runlog
+from gbpipe import io, model
 from gbpipe.model.dataset import frequency_grid, statespace_dataset
 
 snakemake = globals()["snakemake"]
-log = runlog.setup(snakemake.log[0])
+log = io.setup_log(snakemake.log[0])
 cfg = snakemake.params.model
 f = frequency_grid(**cfg["model"]["frf"])
 
@@ -32,3 +33,11 @@ ds = ds.merge(statespace_dataset(
 io.write(ds, snakemake.output.bench, stage="model", config=cfg,
          title="Torsional model of the back-to-back bench, open and closed loop")
 log.info("bench closed-loop modes [Hz]: %s", ds.closed_mode_frequency.values.round(2))
+
+truth_cfg = snakemake.params.truth
+truth = model.truth_dataset(cfg, truth_cfg["pairings"], frequency_grid(**truth_cfg["frf"]),
+                            truth_cfg["frf"]["f_max"], truth_cfg["zeta_max"])
+io.write(truth, snakemake.output.truth, stage="model", config={**cfg, "identify": truth_cfg},
+         title="True FRFs and modes of every identification pairing")
+log.info("truth of %d pairings on %d frequencies", truth.sizes["pairing"],
+         truth.sizes["frequency"])

@@ -1,15 +1,15 @@
 """Rule `simulate`: one closed-loop test variant, clean and measured-like."""
 
-from gbpipe import io, runlog, simulate
+from gbpipe import io, simulate
 
 # float64: at 117 rad/s float32 resolves only 8e-6 rad/s, as large as the cross-path speed
 # response near 100 Hz that identification needs
 
 snakemake = globals()["snakemake"]
-log = runlog.setup(snakemake.log[0])
+log = io.setup_log(snakemake.log[0])
 w = snakemake.wildcards
 ds = simulate.test(snakemake.params.cfg, w.test, w.profile)
-io.write(ds, snakemake.output[0], stage="simulate", config=snakemake.params.cfg,
+io.write(ds, snakemake.output.nc, stage="simulate", config=snakemake.params.cfg,
          wildcards={"test": w.test, "profile": w.profile},
          title=f"Closed-loop bench test {w.test}, {w.profile} steps")
 log.info("%s/%s: %d samples, %d tachometer pulses", w.test, w.profile, ds.time.size,

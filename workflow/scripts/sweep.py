@@ -1,11 +1,11 @@
 """Rule `sweep`: constant-torque speed sweep with harmonics and tachometer pulses."""
 
-from gbpipe import io, runlog, simulate
+from gbpipe import io, simulate
 
 snakemake = globals()["snakemake"]
-log = runlog.setup(snakemake.log[0])
+log = io.setup_log(snakemake.log[0])
 ds = simulate.sweep(snakemake.params.cfg)
-io.write(ds, snakemake.output[0], stage="sweep", config=snakemake.params.cfg, float32=True,
+io.write(ds, snakemake.output.nc, stage="sweep", config=snakemake.params.cfg, float32=True,
          title="Speed sweep at constant torque, measured-like")
 log.info("sweep: %d samples, %d pulses, %.0f-%.0f rpm", ds.time.size, ds.pulse.size,
          float(ds.rpm.min()), float(ds.rpm.max()))

@@ -11,6 +11,8 @@ import os
 from collections.abc import Mapping
 from pathlib import Path
 
+from gbpipe.io import atomic_path
+
 __all__ = ["write_caption"]
 
 
@@ -35,8 +37,6 @@ def write_caption(path: str | os.PathLike, title: str, paper: str, shows: str,
     for label, value in (numbers or {}).items():
         lines.append(f"* {label}: {value}")
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.name}.tmp")
-    tmp.write_text("\n".join(lines).rstrip() + "\n")
-    os.replace(tmp, path)
+    with atomic_path(path) as tmp:
+        tmp.write_text("\n".join(lines).rstrip() + "\n")
     return path

@@ -8,6 +8,8 @@ from typing import Any
 
 import numpy as np
 
+from gbpipe.figures.style import new, save
+
 __all__ = ["fig_bode_identified", "fig_bandwidth"]
 
 
@@ -33,7 +35,6 @@ def fig_bode_identified(datasets: Sequence, best: Mapping[str, Any],
     dict
         Method -> match bandwidth [Hz] of the drawn model.
     """
-    from gbpipe.figures.style import new, save
 
     fig, (ax, ax_e) = new(2, 1, figsize=(7.0, 5.6), sharex=True,
                           gridspec_kw={"height_ratios": [2.2, 1]})
@@ -72,7 +73,6 @@ def fig_bode_identified(datasets: Sequence, best: Mapping[str, Any],
 
 def fig_bandwidth(rows: Sequence[Mapping[str, Any]], stem: str | os.PathLike) -> None:
     """Heat map of the match bandwidth: pairing x version (rows) vs variant x method."""
-    from gbpipe.figures.style import new, save
 
     ylab = sorted({(r["pairing"], r["version"]) for r in rows},
                   key=lambda k: (k[0], ["clean", "raw", "tsa"].index(k[1])))

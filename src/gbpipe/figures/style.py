@@ -11,6 +11,8 @@ matplotlib.use("Agg")  # headless: Snakemake jobs and CI have no display
 
 import matplotlib.pyplot as plt  # noqa: E402
 
+from gbpipe.io import atomic_path  # noqa: E402
+
 __all__ = ["plt", "save", "new"]
 
 plt.rcParams.update({
@@ -31,13 +33,11 @@ def save(fig, stem: str | os.PathLike) -> list[Path]:
     stem = Path(stem)
     if stem.suffix in (".png", ".pdf"):
         stem = stem.with_suffix("")
-    stem.parent.mkdir(parents=True, exist_ok=True)
     out = []
     for ext in ("png", "pdf"):
         path = stem.with_suffix(f".{ext}")
-        tmp = path.with_name(f".{path.name}.tmp")
-        fig.savefig(tmp, format=ext)
-        os.replace(tmp, path)
+        with atomic_path(path) as tmp:
+            fig.savefig(tmp, format=ext)
         out.append(path)
     plt.close(fig)
     return out

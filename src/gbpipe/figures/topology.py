@@ -15,7 +15,7 @@ from matplotlib.patches import Circle, FancyBboxPatch
 
 from gbpipe.figures.style import new, save
 from gbpipe.kinematics import parse_stages
-from gbpipe.model.drivetrain import bench_mechanism
+from gbpipe.model import bench_mechanism
 
 __all__ = ["fig5_topology"]
 

@@ -15,8 +15,9 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["frf_error_db", "match_bandwidth", "continuous_poles", "identified_modes",
-           "match_modes", "fit_percent"]
+from gbpipe.lti import modes
+
+__all__ = ["frf_error_db", "match_bandwidth", "identified_modes", "match_modes"]
 
 
 def frf_error_db(g_id: np.ndarray, g_true: np.ndarray) -> np.ndarray:
@@ -50,30 +51,19 @@ def match_bandwidth(f_hz: np.ndarray, err_db: np.ndarray, tol_db: float = 1.0) -
     return 0.0 if first_bad == 0 else float(f_hz[first_bad - 1])
 
 
-def continuous_poles(A: np.ndarray, dt: float) -> np.ndarray:
-    """Continuous-time equivalents ``s = ln(z) / dt`` [rad/s] of the eigenvalues of ``A``."""
-    z = np.linalg.eigvals(np.asarray(A, dtype=float)).astype(complex)
-    z = np.where(np.abs(z) < 1e-300, 1e-300, z)
-    return np.log(z) / dt
-
-
-def identified_modes(A: np.ndarray, dt: float, f_max: float, zeta_max: float = 0.2
+def identified_modes(A: np.ndarray, dt: float, f_max: float, zeta_max: float
                      ) -> tuple[np.ndarray, np.ndarray]:
-    """Lightly damped modes of an identified discrete model below ``f_max`` [Hz].
+    """Lightly damped modes of an identified discrete model up to ``f_max`` [Hz].
 
     Returns
     -------
     freq_hz, zeta : ndarray
-        Natural frequencies |s|/2π [Hz] (ascending) and damping −Re s/|s|, one per pair.
+        Natural frequencies [Hz] (ascending) and damping ratios (:func:`gbpipe.lti.modes`)
+        of the modes with ``freq_hz <= f_max`` and ``zeta <= zeta_max``.
     """
-    s = continuous_poles(A, dt)
-    s = s[s.imag > 1e-9]
-    wn = np.abs(s)
-    f = wn / (2 * np.pi)
-    z = -s.real / np.maximum(wn, 1e-300)
+    f, z = modes(A, dt)
     keep = (f <= f_max) & (z <= zeta_max)
-    order = np.argsort(f[keep])
-    return f[keep][order], z[keep][order]
+    return f[keep], z[keep]
 
 
 def match_modes(f_true: np.ndarray, f_id: np.ndarray) -> np.ndarray:
@@ -82,14 +72,3 @@ def match_modes(f_true: np.ndarray, f_id: np.ndarray) -> np.ndarray:
     if f_id.size == 0:
         return np.full(len(f_true), np.nan)
     return np.array([f_id[np.argmin(np.abs(f_id - ft))] for ft in f_true])
-
-
-def fit_percent(y: np.ndarray, y_sim: np.ndarray) -> np.ndarray:
-    """NRMSE fit ``100 (1 − ||y − ŷ|| / ||y − mean y||)`` per column [%]."""
-    y = np.asarray(y, dtype=float).reshape(len(y), -1)
-    y_sim = np.asarray(y_sim, dtype=float).reshape(len(y), -1)
-    with np.errstate(all="ignore"):
-        num = np.linalg.norm(y - y_sim, axis=0)
-        den = np.linalg.norm(y - y.mean(axis=0), axis=0)
-        out = 100.0 * (1.0 - num / den)
-    return np.where(np.isfinite(out), out, -np.inf)

@@ -7,7 +7,7 @@ Three data versions of a record are identified (``VERSIONS``):
   sensor noise), as a bench would log them;
 * ``tsa``: the measured-like signals after removal of the configured harmonic families
   (``tsa.tests``) by joint block time-synchronous averaging with the record's own GB1 HSS
-  tachometer (:func:`gbpipe.tsa.residual_joint`).
+  tachometer (the ``tsa_tests`` stage, :func:`gbpipe.harmonics.record_residuals`).
 
 All three then go through the same :func:`condition`: subtract the operating point (the
 mean over the initial steady-state ``settle`` seconds, *not* the record mean: the
@@ -21,13 +21,16 @@ current noise into "past" samples, which the closed-loop consistency of PBSID re
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
-from typing import Any
+from collections.abc import Sequence
 
 import numpy as np
+import xarray as xr
+from scipy import signal
+
+from gbpipe.errors import ConfigError, DataError
 
 __all__ = ["VERSIONS", "VALIDATION_PARTNER", "operating_point", "decimation_filter",
-           "decimate", "condition", "tsa_residuals", "version_signals"]
+           "decimate", "condition", "version_signals"]
 
 #: Data versions identified for every record.
 VERSIONS = ("clean", "raw", "tsa")
@@ -51,13 +54,13 @@ def operating_point(x: np.ndarray, fs: float, settle: float) -> float:
 
     Raises
     ------
-    ValueError
+    gbpipe.errors.ConfigError
         If ``settle`` holds fewer than 10 samples or more than the record.
     """
     n0 = int(round(settle * fs))
     if n0 < 10 or n0 > len(x):
-        raise ValueError(f"settle={settle} s gives {n0} samples at fs={fs} Hz for a record of "
-                         f"{len(x)} samples: use campaign.settle >= 10/fs and <= the record")
+        raise ConfigError("campaign.settle", f"{settle} s gives {n0} samples at fs={fs} Hz for "
+                          f"a record of {len(x)} samples: use >= 10/fs and <= the record")
     return float(np.mean(x[:n0]))
 
 
@@ -83,18 +86,17 @@ def decimation_filter(fs: float, fs_out: float, cutoff: float = 0.8,
 
     Raises
     ------
-    ValueError
+    gbpipe.errors.ConfigError
         Non-integer factor or cutoff outside (0, 1).
     """
-    from scipy import signal
-
     ratio = fs / fs_out
     q = int(round(ratio))
     if q < 1 or abs(ratio - q) > 1e-9 * ratio:
-        raise ValueError(f"identify.sample_rate={fs_out} Hz must divide the record rate {fs} Hz "
-                         "by an integer factor")
+        raise ConfigError("identify.sample_rate", f"{fs_out} Hz must divide the record rate "
+                          f"{fs} Hz by an integer factor")
     if not 0 < cutoff < 1:
-        raise ValueError(f"identify.lowpass={cutoff} must be in (0, 1) (share of the new Nyquist)")
+        raise ConfigError("identify.lowpass", f"{cutoff} must be in (0, 1) (share of the new "
+                          "Nyquist)")
     if q == 1:
         return np.ones(1), 1
     # Pass band to cutoff x new Nyquist, stop band from the new Nyquist: nothing above
@@ -106,14 +108,21 @@ def decimation_filter(fs: float, fs_out: float, cutoff: float = 0.8,
 
 
 def decimate(x: np.ndarray, fs: float, fs_out: float, cutoff: float = 0.8) -> np.ndarray:
-    """Causal anti-aliased decimation of ``x`` (shape (n,) or (n, channels)) along axis 0."""
-    from scipy import signal
+    """Causal anti-aliased decimation of ``x`` (shape (n,) or (n, channels)) along axis 0.
 
+    Filtering and downsampling in one polyphase step (:func:`scipy.signal.upfirdn`), which
+    computes only the kept samples. Output sample ``k`` is the filter output at input
+    sample ``len(h) - 1 + q k``: the filter's start-up transient (one filter length) is
+    dropped, so no sample sees the zero initial state. Causal (not
+    :func:`scipy.signal.resample_poly`, which centres the filter): see the module notes.
+    """
+    x = np.asarray(x, dtype=float)
     h, q = decimation_filter(fs, fs_out, cutoff)
-    xf = signal.lfilter(h, [1.0], np.asarray(x, dtype=float), axis=0) if q > 1 else x
-    # drop the filter's start-up transient (one filter length) so no sample sees the zero
-    # initial state
-    return np.asarray(xf)[len(h) - 1::q].copy() if q > 1 else np.array(xf, dtype=float)
+    if q == 1:
+        return x.copy()
+    first = len(h) - 1  # a multiple of q (len(h) = taps_per_factor q + 1)
+    n_out = len(range(first, x.shape[0], q))
+    return signal.upfirdn(h, x, up=1, down=q, axis=0)[first // q:first // q + n_out]
 
 
 def condition(signals: Sequence[np.ndarray], fs: float, settle: float, fs_out: float,
@@ -145,66 +154,8 @@ def condition(signals: Sequence[np.ndarray], fs: float, settle: float, fs_out: f
     return decimate(x - np.asarray(offsets)[None, :], fs, fs_out, cutoff)
 
 
-def tsa_residuals(ds, names: Sequence[str], stages: Sequence[Mapping[str, Any]],
-                  tsa_cfg: Mapping[str, Any], keep_below: float = 0.5
-                  ) -> dict[str, np.ndarray]:
-    """Measured-like signals after joint TSA removal of the ``tsa.tests`` families.
-
-    Parameters
-    ----------
-    ds : xarray.Dataset
-        A simulated record with ``<name>_measured``, ``pulse_time`` and attribute
-        ``pulses_per_rev``.
-    names : sequence of str
-        Signal names (without ``_measured``).
-    stages : sequence of mapping
-        Gearbox stages (for the exact cycle orders).
-    tsa_cfg : mapping
-        ``cfg["tsa"]``: ``tests`` (cycle names), ``n_cycles``, ``unbiased``.
-    keep_below : float
-        TSA acts only on the part of each signal above ``keep_below`` times the lowest
-        removed cycle frequency at the record's mean HSS speed (split by a zero-phase
-        Butterworth low-pass; the low part is added back unchanged; 0 disables the split).
-        Why: each block's mean cycle also averages whatever else is in the block; for a
-        step test that is the bench's slow step response, whose trend inside a 10-cycle
-        block becomes a sawtooth at the cycle rate in the mean cycle, and whose block
-        means form a staircase -- subtracting both would inject broadband errors far
-        larger than the harmonics. Every harmonic lies at or above the lowest cycle
-        frequency, so the split loses none of them.
-
-    Returns
-    -------
-    dict
-        Name -> residual at the record's sample rate, unit of the signal.
-    """
-    from scipy import signal
-
-    from gbpipe import tsa
-    from gbpipe.kinematics import order_of
-
-    fs = float(ds.attrs["sample_rate"])
-    pulses = np.asarray(ds["pulse_time"].values, dtype=float)
-    ppr = int(ds.attrs.get("pulses_per_rev", 1))
-    cycles = [order_of(stages, c) for c in tsa_cfg["tests"]]
-    f_hss = float(np.mean(ds["speed_gb1_hss"].values)) / (2 * np.pi)
-    f_low = keep_below * min(float(c) for c in cycles) * f_hss
-    sos = signal.butter(6, f_low, fs=fs, output="sos") if keep_below > 0 else None
-    out = {}
-    for name in names:
-        x = np.asarray(ds[f"{name}_measured"].values, dtype=float)
-        if not cycles:
-            out[name] = x
-            continue
-        low = signal.sosfiltfilt(sos, x) if sos is not None else np.zeros_like(x)
-        r = low + tsa.residual_joint(x - low, fs, pulses, cycles, int(tsa_cfg["n_cycles"]),
-                                     ppr, unbiased=bool(tsa_cfg.get("unbiased", False)),
-                                     outside="keep")
-        out[name] = r
-    return out
-
-
-def version_signals(ds, names: Sequence[str], version: str,
-                    tsa_ds=None) -> list[np.ndarray]:
+def version_signals(ds: xr.Dataset, names: Sequence[str], version: str,
+                    tsa_ds: xr.Dataset | None = None) -> list[np.ndarray]:
     """The signals of one data version of a record (SI units, record rate).
 
     Parameters
@@ -220,7 +171,9 @@ def version_signals(ds, names: Sequence[str], version: str,
     Raises
     ------
     ValueError
-        Unknown version, or a missing signal.
+        Unknown version, or ``tsa`` without ``tsa_ds``.
+    gbpipe.errors.DataError
+        A signal missing from the record.
     """
     if version not in VERSIONS:
         raise ValueError(f"unknown data version {version!r}; use one of {', '.join(VERSIONS)}")
@@ -234,7 +187,7 @@ def version_signals(ds, names: Sequence[str], version: str,
     for n in names:
         key = fmt.format(n)
         if key not in src:
-            raise ValueError(f"signal {key!r} is not in the record; identify.pairings may only "
-                             f"name recorded signals")
+            raise DataError(key, "is not in the record; identify.pairings may only name "
+                            "recorded signals")
         out.append(np.asarray(src[key].values, dtype=float))
     return out

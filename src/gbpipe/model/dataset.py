@@ -7,8 +7,8 @@ from collections.abc import Sequence
 import numpy as np
 import xarray as xr
 
+from gbpipe.lti import NamedSS, frf, modes
 from gbpipe.model.mechanics import Mechanism
-from gbpipe.model.statespace import NamedSS
 
 __all__ = ["statespace_dataset", "frequency_grid"]
 
@@ -37,8 +37,6 @@ def statespace_dataset(ss: NamedSS, f_hz: np.ndarray, prefix: str = "",
     frf_inputs, frf_outputs : sequence of str, optional
         Restrict the stored FRFs.
     """
-    from gbpipe.model import frf, modes
-
     p = prefix
     sub = ss.select(list(frf_inputs) if frf_inputs else None,
                     list(frf_outputs) if frf_outputs else None)

@@ -11,7 +11,7 @@ only needs magnitudes of ratios). A gear mesh is rigid:
 With the housing fixed (``mount: fixed``) ``h = 0`` and these are the plain ratios.
 
 Stage inertias in the config are either one number, lumped on the stage's input member
-(carrier or wheel) — the form of DESIGN.md's starting values — or a mapping of own-axis
+(carrier or wheel) — the form of the paper's starting values — or a mapping of own-axis
 member inertias (``{carrier, planet, sun}`` with ``planet`` per planet; ``{wheel, pinion}``).
 
 Damping: ``c = 2ξ√(k·J_eq)``, ``J_eq = Ja·Jb/(Ja + Jb)`` with ``Ja``, ``Jb`` the inertias of

@@ -19,6 +19,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
+from scipy.linalg import eigh
 
 __all__ = ["Body", "Spring", "Mechanism"]
 
@@ -165,8 +166,6 @@ class Mechanism:
     # -- eigen-analysis --------------------------------------------------------------
     def undamped_frequencies(self) -> np.ndarray:
         """Undamped natural frequencies [Hz] from ``K v = ω² M v`` (rigid modes dropped)."""
-        from scipy.linalg import eigh
-
         w2 = eigh(self.stiffness_matrix, self.mass_matrix, eigvals_only=True)
         scale = max(abs(w2).max(), 1.0)
         w2 = w2[w2 > 1e-9 * scale]

@@ -1,60 +1,22 @@
 """Named state-space matrices of mechanisms, open loop and with the bench's PI loops.
 
 Matrices are built with numpy only (cheap: config validation checks closed-loop stability
-without importing python-control); :func:`to_control` wraps them in a named
-``control.StateSpace`` at the end.
+without importing python-control) as :class:`gbpipe.lti.NamedSS`;
+:func:`gbpipe.lti.control_io.to_control` wraps them in a named ``control.StateSpace`` at
+the public boundary (:mod:`gbpipe.model.control_models`).
 """
 
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
+from gbpipe.lti import NamedSS
 from gbpipe.model.mechanics import Mechanism
 
-__all__ = ["NamedSS", "mechanism_ss", "close_bench_loops", "to_control"]
-
-
-@dataclass
-class NamedSS:
-    """Continuous-time state space ``ẋ = Ax + Bu, y = Cx + Du`` with names and units.
-
-    Attributes
-    ----------
-    A, B, C, D : ndarray
-    states, inputs, outputs : list of str
-    units : dict
-        Signal name → unit string, for every input, output and state.
-    """
-
-    A: np.ndarray
-    B: np.ndarray
-    C: np.ndarray
-    D: np.ndarray
-    states: list[str]
-    inputs: list[str]
-    outputs: list[str]
-    units: dict[str, str] = field(default_factory=dict)
-
-    def index(self, kind: str, name: str) -> int:
-        names = {"input": self.inputs, "output": self.outputs, "state": self.states}[kind]
-        if name not in names:
-            raise ValueError(f"unknown {kind} {name!r}; available: {', '.join(names)}")
-        return names.index(name)
-
-    def select(self, inputs: list[str] | None = None,
-               outputs: list[str] | None = None) -> NamedSS:
-        """Sub-system from chosen inputs to chosen outputs (states kept)."""
-        ii = [self.index("input", n) for n in (inputs or self.inputs)]
-        oo = [self.index("output", n) for n in (outputs or self.outputs)]
-        return NamedSS(self.A, self.B[:, ii], self.C[oo], self.D[np.ix_(oo, ii)], self.states,
-                       [self.inputs[i] for i in ii], [self.outputs[o] for o in oo], self.units)
-
-    def poles(self) -> np.ndarray:
-        return np.linalg.eigvals(self.A)
+__all__ = ["mechanism_ss", "close_bench_loops"]
 
 
 def mechanism_ss(mech: Mechanism, torque_inputs: Mapping[str, tuple[str, float]],
@@ -155,8 +117,8 @@ def close_bench_loops(plant: NamedSS, bench_cfg: Mapping[str, Any],
     sc, tc = bench_cfg["speed_controller"], bench_cfg["torque_controller"]
     kp, ki = speed_gains or (float(sc["kp"]), float(sc["ki"]))
     kpt, kit = torque_gains or (float(tc["kp"]), float(tc["ki"]))
-    b = float(sc.get("setpoint_weight", 1.0))
-    ff = float(tc.get("feedforward", 1.0))
+    b = float(sc["setpoint_weight"])
+    ff = float(tc["feedforward"])
     i_drv, i_brk = plant.index("input", "motor_torque_driver"), plant.index(
         "input", "motor_torque_driven")
     exc = [i for i in range(len(plant.inputs)) if i not in (i_drv, i_brk)]
@@ -201,10 +163,3 @@ def close_bench_loops(plant: NamedSS, bench_cfg: Mapping[str, Any],
                  integral_torque_error="N m s")
     return NamedSS(A, B, C, D, states, inputs, outputs, units)
 
-
-def to_control(ss: NamedSS, name: str | None = None):
-    """Wrap as a named ``control.StateSpace`` (continuous time)."""
-    import control
-
-    return control.ss(ss.A, ss.B, ss.C, ss.D, inputs=ss.inputs, outputs=ss.outputs,
-                      states=ss.states, name=name)

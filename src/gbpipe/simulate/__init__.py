@@ -1,21 +1,19 @@
-"""Simulation: the exact LTI simulator, the test campaigns and the speed sweep.
+"""Simulated test campaigns and the speed sweep of the back-to-back bench.
 
-Public API: :func:`lsim`, :func:`test`, :func:`sweep` (imported lazily: the simulator
-pulls in python-control, which config validation does not need).
+Public API
+----------
+test(cfg, test, profile, measured_like=None)
+    One closed-loop test record (clean and measured-like signals, tachometer pulses).
+sweep(cfg)
+    The constant-torque speed sweep.
+steady_state(ss, u0, omega0)
+    Closed-loop state in steady rotation.
+SIGNALS
+    Recorded signals: name -> (unit, long name, sensor kind).
+
+The simulator itself is :func:`gbpipe.lti.lsim`. See docs/architecture.md, "Stage graph".
 """
 
-from __future__ import annotations
+from gbpipe.simulate.campaign import SIGNALS, steady_state, sweep, test
 
-from importlib import import_module
-from typing import Any
-
-__all__ = ["lsim", "test", "sweep"]
-
-_WHERE = {"lsim": "gbpipe.simulate.lsim", "test": "gbpipe.simulate.campaign",
-          "sweep": "gbpipe.simulate.campaign", "steady_state": "gbpipe.simulate.campaign"}
-
-
-def __getattr__(name: str) -> Any:
-    if name in _WHERE:
-        return getattr(import_module(_WHERE[name]), name)
-    raise AttributeError(f"module 'gbpipe.simulate' has no attribute {name!r}")
+__all__ = ["test", "sweep", "steady_state", "SIGNALS"]

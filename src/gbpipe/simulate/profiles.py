@@ -14,18 +14,15 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["TESTS", "PROFILES", "RPM", "check_campaign", "check_sweep", "check_excitation",
-           "step_reference", "ramp_rate", "sweep_reference", "test_duration"]
+from gbpipe.units import RAD_S_PER_RPM
+
+__all__ = ["TESTS", "PROFILES", "RPM", "check_test", "step_reference", "ramp_rate",
+           "sweep_reference", "test_duration", "test_revolutions", "sweep_revolutions"]
 
 TESTS = ("speed_up", "speed_down", "torque_up", "torque_down")
 PROFILES = ("square", "tapered")
-RPM = 2 * np.pi / 60.0  # rad/s per rev/min
-
-
-def _err(field: str, msg: str) -> ValueError:
-    from gbpipe.config import ConfigError
-
-    return ConfigError(f"config field '{field}': {msg}")
+#: rad/s per rev/min (kept as a name of this module for its callers)
+RPM = RAD_S_PER_RPM
 
 
 def check_test(test: str, profile: str) -> None:
@@ -50,79 +47,6 @@ def test_duration(camp: Mapping[str, Any], test: str, profile: str) -> float:
     key = "speed_rpm" if quantity == "speed" else "torque"
     ramp = float(camp["step"][key]) / ramp_rate(camp, quantity) if profile == "tapered" else 0.0
     return float(camp["settle"]) + 2 * (ramp + float(camp["hold"]))
-
-
-def highest_excitation_hz(cfg: Mapping[str, Any], rpm_max: float) -> float:
-    """Highest frequency [Hz] of the configured shaft and mesh excitation at ``rpm_max``."""
-    from gbpipe.kinematics import order_of
-
-    exc = cfg.get("excitation")
-    if not exc:
-        return 0.0
-    f_hss = rpm_max / 60.0
-    orders = [float(s["order"]) for s in exc["shaft_orders"] if s["amplitude"] > 0]
-    for m in exc["mesh"]:
-        o = float(order_of(cfg["gearbox"]["stages"], f"mesh{m['stage']}"))
-        orders.append(o * len(m["harmonics"]))
-    return f_hss * max(orders, default=0.0)
-
-
-def _check_rate(cfg: Mapping[str, Any], field: str, fs: float, rpm_max: float) -> None:
-    f_max = highest_excitation_hz(cfg, rpm_max)
-    if fs < 2.5 * f_max:
-        raise _err(field, f"{fs:g} Hz is below 2.5 x the highest excitation frequency "
-                          f"({f_max:.1f} Hz at {rpm_max:g} rpm); raise it to at least "
-                          f"{2.5 * f_max:.0f} Hz or drop high mesh harmonics")
-
-
-def check_campaign(cfg: Mapping[str, Any]) -> None:
-    """Check the ``campaign`` section (durations, sample rate, steps) before simulating."""
-    camp = cfg.get("campaign")
-    if not camp:
-        return
-    for key in ("settle", "hold"):
-        if float(camp[key]) < 0 or (key == "hold" and float(camp[key]) <= 0):
-            raise _err(f"campaign.{key}", f"duration must be positive, got {camp[key]} s")
-    if float(camp["step"]["speed_rpm"]) >= float(camp["nominal"]["speed_rpm"]):
-        raise _err("campaign.step.speed_rpm", "a step down would stop the bench: keep it "
-                   "below campaign.nominal.speed_rpm")
-    nom, st, fr = camp["nominal"], camp["step"], camp["full_range"]
-    if float(nom["speed_rpm"]) + float(st["speed_rpm"]) > float(fr["speed_rpm"]):
-        raise _err("campaign.step.speed_rpm", "nominal + step exceeds the bench's full range")
-    if float(nom["torque"]) + float(st["torque"]) > float(fr["torque"]):
-        raise _err("campaign.step.torque", "nominal + step exceeds the bench's full range")
-    rpm_max = float(nom["speed_rpm"]) + float(st["speed_rpm"])
-    _check_rate(cfg, "campaign.sample_rate", float(camp["sample_rate"]), rpm_max)
-
-
-def check_sweep(cfg: Mapping[str, Any]) -> None:
-    """Check the ``sweep`` section before simulating."""
-    sw = cfg.get("sweep")
-    if not sw:
-        return
-    if float(sw["settle"]) < 0:
-        raise _err("sweep.settle", f"duration must be >= 0, got {sw['settle']} s")
-    if float(sw["duration"]) <= 0:
-        raise _err("sweep.duration", f"duration must be positive, got {sw['duration']} s")
-    if float(sw["rpm_end"]) == float(sw["rpm_start"]):
-        raise _err("sweep.rpm_end", "a sweep needs rpm_end different from rpm_start")
-    _check_rate(cfg, "sweep.sample_rate", float(sw["sample_rate"]),
-                max(float(sw["rpm_start"]), float(sw["rpm_end"])))
-    if "campaign" in cfg:
-        rate = ramp_rate(cfg["campaign"], "speed")
-        needed = abs(float(sw["rpm_end"]) - float(sw["rpm_start"])) / rate
-        if float(sw["duration"]) < needed:
-            raise _err("sweep.duration", f"{sw['duration']} s is faster than the bench's "
-                       f"ramp rate ({rate:.1f} rpm/s): use at least {needed:.1f} s")
-
-
-def check_excitation(cfg: Mapping[str, Any]) -> None:
-    """Check that every excited mesh stage exists in the gearbox."""
-    n = len(cfg["gearbox"]["stages"])
-    for i, m in enumerate(cfg.get("excitation", {}).get("mesh", [])):
-        if m["stage"] > n:
-            raise _err(f"excitation.mesh[{i}].stage",
-                       f"stage {m['stage']} does not exist in a {n}-stage gearbox")
 
 
 def step_reference(camp: Mapping[str, Any], test: str, profile: str,
@@ -177,3 +101,25 @@ def sweep_reference(sw: Mapping[str, Any]) -> tuple[np.ndarray, np.ndarray, np.n
     rpm = np.interp(t, [0.0, settle, settle + dur],
                     [float(sw["rpm_start"]), float(sw["rpm_start"]), float(sw["rpm_end"])])
     return t, rpm * RPM, np.full(n, float(sw["torque"]))
+
+
+def test_revolutions(camp: Mapping[str, Any], test: str, profile: str) -> float:
+    """HSS revolutions [-] the speed reference of one test spans (its exact integral).
+
+    The step's ramps are linear, so the step adds ``step × (ramp + hold)`` rpm·s whatever
+    the profile (a square step has ``ramp = 0``).
+    """
+    check_test(test, profile)
+    nominal = float(camp["nominal"]["speed_rpm"])
+    revs = nominal * test_duration(camp, test, profile)
+    if test.startswith("speed"):
+        step = float(camp["step"]["speed_rpm"])
+        ramp = step / ramp_rate(camp, "speed") if profile == "tapered" else 0.0
+        revs += (1.0 if test == "speed_up" else -1.0) * step * (ramp + float(camp["hold"]))
+    return revs / 60.0
+
+
+def sweep_revolutions(sw: Mapping[str, Any]) -> float:
+    """HSS revolutions [-] the sweep's speed reference spans (settle, then a linear ramp)."""
+    start, end = float(sw["rpm_start"]), float(sw["rpm_end"])
+    return (start * float(sw["settle"]) + 0.5 * (start + end) * float(sw["duration"])) / 60.0

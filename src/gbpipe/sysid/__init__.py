@@ -1,16 +1,30 @@
 """Subspace identification: PBSID-opt (closed-loop capable), PO-MOESP and N4SID.
 
-Pure numerics on input/output arrays of shape (samples,) or (samples, channels). Memory is
-O(N) in the record length: the block-Hankel data matrix is never formed; its triangular
-factor is accumulated in chunks (see ``_common.window_r_factor``).
+Pure numerics on input/output arrays of shape (samples,) or (samples, channels), built on
+numpy, scipy and the LTI core :mod:`gbpipe.lti`. Memory is O(N) in the record length: the
+block-Hankel data matrix is never formed; its triangular factor is accumulated in chunks.
+
+Modules, one concept each (``docs/architecture.md``, "Package map"):
+
+* :mod:`.method_pbsid`, :mod:`.method_moesp`, :mod:`.method_n4sid`: the three methods (named
+  so that no module hides its function); :mod:`.open_loop` holds
+  the steps MOESP and N4SID share;
+* :mod:`.subspace_model`: the result, :class:`SubspaceModel` (its deterministic part is a
+  :class:`gbpipe.lti.NamedSS`);
+* :mod:`.checks`: argument checks and the validated, channel-scaled record;
+* :mod:`.excitation`: the persistent-excitation check (:class:`gbpipe.errors.ExcitationError`);
+* :mod:`.hankel`: Gram matrix and triangular factor of the data windows, least squares on it;
+* :mod:`.order`: order from the singular values;
+* :mod:`.kalman`: steady-state Kalman gain of the innovation form.
 
 >>> model = pbsid(u, y, order="auto", past=40, dt=1e-3)          # doctest: +SKIP
->>> model.frf(freq_hz), model.fit(u_val, y_val), model.to_statespace()  # doctest: +SKIP
+>>> model.frf(freq_hz), model.fit(u_val, y_val), model.ss        # doctest: +SKIP
 """
 
-from .moesp import moesp
-from .n4sid import n4sid
-from .pbsid import pbsid
-from .result import SubspaceModel, simulate_ss
+from gbpipe.sysid.excitation import InputRank, input_hankel_rank
+from gbpipe.sysid.method_moesp import moesp
+from gbpipe.sysid.method_n4sid import n4sid
+from gbpipe.sysid.method_pbsid import pbsid
+from gbpipe.sysid.subspace_model import SubspaceModel
 
-__all__ = ["pbsid", "moesp", "n4sid", "SubspaceModel", "simulate_ss"]
+__all__ = ["pbsid", "moesp", "n4sid", "SubspaceModel", "InputRank", "input_hankel_rank"]

@@ -1,0 +1,31 @@
+"""Configuration: load, merge, validate against the closed schema, fill in defaults.
+
+Public API
+----------
+load(path, *overlays)
+    YAML file(s) -> merged (as Snakemake's ``--configfile``), validated, complete config.
+validate(cfg)
+    The same for a merged dict (the Snakefile calls it on Snakemake's ``config``).
+merge(base, overlay)
+    Deep merge: mappings key by key, lists replaced.
+schema()
+    The JSON schema (``src/gbpipe/schemas/config.schema.yaml``).
+order_bound(cfg)
+    States of the bench in the identified band: the default ``identify.max_order``.
+ConfigError
+    Raised for every bad value, naming its key path (``gearbox.stages[1].ring``).
+
+After :func:`load`/:func:`validate` every key that has a default (config/README.md) is
+present, so code reads ``cfg["tsa"]["unbiased"]`` without fallbacks.
+"""
+
+from __future__ import annotations
+
+from gbpipe.config.bounds import order_bound
+from gbpipe.config.derive import Config
+from gbpipe.config.loader import load, merge, read_yaml, validate
+from gbpipe.config.schema_validation import SCHEMA_PATH, schema
+from gbpipe.errors import ConfigError
+
+__all__ = ["load", "validate", "merge", "schema", "order_bound", "read_yaml", "Config",
+           "ConfigError", "SCHEMA_PATH"]

@@ -1,0 +1,94 @@
+"""Defaults that follow from other keys, materialised at load.
+
+The schema's ``default:`` values are constants. These depend on the rest of the
+configuration and are filled in after the schema (only where the key is absent):
+
+* ``tsa.variants[i].averaging`` ← ``tsa.averaging``;
+* ``sweep.noise`` ← every level of the top-level ``noise`` not given for the sweep, so
+  ``sweep.noise`` is the sweep's complete noise section;
+* ``identify.tests`` / ``identify.profiles`` ← ``campaign.tests`` / ``campaign.profiles``;
+* ``identify.best`` ← the first configured test, profile, pairing and version;
+* ``identify.max_order`` ← :func:`gbpipe.config.bounds.order_bound` (the bench's states in
+  the identified band).
+
+The result is a :class:`Config`: a plain dict that remembers which key paths were
+derived, so that :func:`gbpipe.config.merge` of a loaded configuration with an overlay
+derives them again from the overlaid values instead of keeping stale ones.
+"""
+
+from __future__ import annotations
+
+import copy
+from collections.abc import Callable, Mapping
+from typing import Any
+
+__all__ = ["Config", "derive"]
+
+Path = tuple[str | int, ...]
+
+
+class Config(dict):
+    """A validated configuration: a dict, plus the key paths of derived values.
+
+    Attributes
+    ----------
+    derived : frozenset of tuple
+        Key paths (e.g. ``("identify", "max_order")``) filled in from other keys.
+    """
+
+    derived: frozenset[Path] = frozenset()
+
+    def explicit(self) -> dict[str, Any]:
+        """A deep copy without the derived values (what the files and overlays gave)."""
+        out = copy.deepcopy(dict(self))
+        for path in self.derived:
+            node: Any = out
+            for key in path[:-1]:
+                node = node[key]
+            node.pop(path[-1], None)
+        return out
+
+
+def _fill(node: dict, key: str, value: Any, path: Path, derived: set[Path]) -> None:
+    if key not in node:
+        node[key] = copy.deepcopy(value)
+        derived.add((*path, key))
+
+
+def derive(cfg: dict[str, Any], order_bound: Callable[[Mapping[str, Any]], int]) -> Config:
+    """Fill the derived defaults of a schema-complete ``cfg`` (modified in place).
+
+    Parameters
+    ----------
+    cfg : dict
+        Configuration after :func:`gbpipe.config.schema_validation.apply_schema` and the gearbox
+        checks.
+    order_bound : callable
+        ``cfg -> int``, the default of ``identify.max_order``.
+
+    Returns
+    -------
+    Config
+    """
+    derived: set[Path] = set()
+    tsa = cfg["tsa"]
+    for i, v in enumerate(tsa["variants"]):
+        _fill(v, "averaging", tsa["averaging"], ("tsa", "variants", i), derived)
+    sweep_noise = cfg["sweep"]["noise"]
+    for group, levels in cfg["noise"].items():
+        sweep_noise.setdefault(group, {})
+        for name, value in levels.items():
+            _fill(sweep_noise[group], name, value, ("sweep", "noise", group), derived)
+    idc = cfg["identify"]
+    _fill(idc, "tests", cfg["campaign"]["tests"], ("identify",), derived)
+    _fill(idc, "profiles", cfg["campaign"]["profiles"], ("identify",), derived)
+    best = idc.setdefault("best", {})
+    firsts = {"test": idc["tests"][0], "profile": idc["profiles"][0],
+              "pairing": idc["pairings"][0]["name"], "version": idc["versions"][0]}
+    for key, value in firsts.items():
+        _fill(best, key, value, ("identify", "best"), derived)
+    if "max_order" not in idc:
+        _fill(idc, "max_order", order_bound(cfg), ("identify",), derived)
+    out = Config(cfg)
+    out.derived = frozenset(derived)
+    return out

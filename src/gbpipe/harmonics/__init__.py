@@ -1,0 +1,68 @@
+"""Harmonic removal on real and virtual tachometers: from pulses to TSA residuals and
+their metrics (docs/architecture.md, "Package map").
+
+Modules, each one concept, lowest first:
+
+=============  ==========================================================================
+``checks``     argument and data checks shared by all (DataError / PulseError)
+``tacho``      tachometer pulses: detection, checks and repair, shaft angle and speed
+``angle``      angular resampling to and from constant shaft angle (:class:`AngleMap`)
+``tracking``   order-tracked complex amplitudes at exact orders
+``binning``    speed bins shared by spectra and metrics
+``spectra``    power and order spectra vs rpm (waterfalls), order spectrum of a record
+``averaging``  one family's cycle plan: block, sliding and quadratic averages
+``tsa``        time-synchronous averaging residuals: one family, joint or cascade
+``families``   exact cycle orders, excitation families, structural modes
+``metrics``    family attenuation, mode-band change, removal metrics
+``stage``      what the workflow calls (spectra, tsa, tsa_tests stages)
+=============  ==========================================================================
+
+Imports only numpy, scipy, xarray and gbpipe's kinematics, units and errors: never the
+bench model or the simulator, so that it runs unchanged on measured records.
+"""
+
+from gbpipe.harmonics.angle import AngleMap, resample_to_angle, resample_to_time
+from gbpipe.harmonics.averaging import AVERAGING, CyclePlan
+from gbpipe.harmonics.families import (
+                                       cycle_orders,
+                                       excitation_families,
+                                       family_orders,
+                                       removed_families,
+                                       structural_modes,
+)
+from gbpipe.harmonics.metrics import family_attenuation, mode_band_change, removal_metrics
+from gbpipe.harmonics.spectra import order_spectrum, order_spectrum_vs_rpm, power_spectrum_vs_rpm
+from gbpipe.harmonics.stage import (
+                                       record_residuals,
+                                       remove,
+                                       sweep_waterfalls,
+                                       tsa_variant,
+                                       variant_metrics,
+                                       waterfalls,
+)
+from gbpipe.harmonics.tacho import (
+                                       PulseCheck,
+                                       check_pulse_times,
+                                       pulse_times_from_tacho,
+                                       shaft_angle,
+                                       shaft_speed,
+)
+from gbpipe.harmonics.tracking import order_amplitudes
+from gbpipe.harmonics.tsa import JointInfo, TSAInfo, residual, residual_joint, synchronous_average
+
+__all__ = [
+    # tachometer and angle
+    "pulse_times_from_tacho", "check_pulse_times", "PulseCheck", "shaft_angle",
+    "shaft_speed", "AngleMap", "resample_to_angle", "resample_to_time",
+    # spectra and order tracking
+    "power_spectrum_vs_rpm", "order_spectrum_vs_rpm", "order_spectrum", "order_amplitudes",
+    # time-synchronous averaging
+    "residual", "residual_joint", "synchronous_average", "TSAInfo", "JointInfo",
+    "CyclePlan", "AVERAGING",
+    # families and metrics
+    "family_orders", "cycle_orders", "excitation_families", "removed_families",
+    "structural_modes", "family_attenuation", "mode_band_change", "removal_metrics",
+    # workflow stages
+    "remove", "waterfalls", "variant_metrics", "sweep_waterfalls", "tsa_variant",
+    "record_residuals",
+]

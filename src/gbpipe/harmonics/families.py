@@ -1,0 +1,111 @@
+"""Harmonic families: exact cycle orders, the configured excitation orders, which of them
+a cycle removes, and the structural modes a removal must leave alone.
+
+Which excitation orders a TSA variant removes is decided exactly: a configured excitation
+order ``o`` (shaft order or mesh harmonic, a Fraction from the teeth) is removed by a
+cycle of order ``c`` when ``o / c`` is a whole number. Those are the families whose
+attenuation is measured and whose crossings of a structural mode are flagged.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from fractions import Fraction
+from typing import Any
+
+import numpy as np
+
+from gbpipe.harmonics.checks import as_order, as_positive
+from gbpipe.kinematics import order_of
+
+__all__ = ["family_orders", "cycle_orders", "excitation_families", "removed_families",
+           "structural_modes"]
+
+
+def family_orders(cycle_order: float | Fraction, max_order: float) -> np.ndarray:
+    """Harmonics ``k * cycle_order`` (k = 1, 2, ...) up to ``max_order``.
+
+    Parameters
+    ----------
+    cycle_order : float or Fraction
+        Fundamental order of the family [HSS orders], > 0.
+    max_order : float
+        Highest order [-].
+
+    Returns
+    -------
+    numpy.ndarray
+        The orders [-]; computed from the Fraction when one is given (no drift).
+    """
+    c = as_order(cycle_order)
+    max_order = as_positive(max_order, "max_order", "orders")
+    k = np.arange(1, int(np.floor(max_order / c + 1e-12)) + 1)
+    if isinstance(cycle_order, Fraction):
+        return np.array([float(cycle_order * int(i)) for i in k])
+    return k * c
+
+
+def structural_modes(freqs: Sequence[float], f_min: float, f_max: float,
+                     merge_within: float) -> np.ndarray:
+    """Mode frequencies [Hz] to watch, in ``(f_min, f_max)``, close pairs merged.
+
+    The bench's twin gearboxes give pairs of modes a fraction of a hertz apart (61.9 and
+    62.4 Hz); one band covers both, so pairs closer than ``merge_within`` become their mean.
+    """
+    f = np.sort(np.asarray(freqs, dtype=float))
+    f = f[(f > f_min) & (f < f_max)]
+    groups: list[list[float]] = []
+    for v in f:
+        if groups and v - groups[-1][-1] < merge_within:
+            groups[-1].append(v)
+        else:
+            groups.append([v])
+    return np.array([np.mean(g) for g in groups])
+
+
+def cycle_orders(stages: Sequence[Mapping[str, Any]], cycles: Sequence[str]) -> list[Fraction]:
+    """Exact HSS orders of named cycles (``hss``, ``carrier2``, ``mesh2`` …).
+
+    Parameters
+    ----------
+    stages : sequence of mapping
+        ``cfg["gearbox"]["stages"]``.
+    cycles : sequence of str
+        Shaft, member or mesh names of :func:`gbpipe.kinematics.order_of`.
+    """
+    return [order_of(stages, c) for c in cycles]
+
+
+def excitation_families(cfg: Mapping[str, Any]) -> dict[str, list[Fraction]]:
+    """Orders of every configured excitation, grouped by source.
+
+    Returns
+    -------
+    dict
+        ``"shaft"`` → HSS orders of the shaft excitation; ``"mesh<k>"`` → the harmonics of
+        stage k's mesh order, all as Fractions.
+    """
+    stages = cfg["gearbox"]["stages"]
+    exc = cfg["excitation"]
+    fam = {"shaft": [Fraction(s["order"]).limit_denominator(1000)
+                     for s in exc["shaft_orders"] if s["amplitude"] > 0]}
+    for m in exc["mesh"]:
+        o = order_of(stages, f"mesh{m['stage']}")
+        fam[f"mesh{m['stage']}"] = [h * o for h, w in enumerate(m["harmonics"], start=1)
+                                    if w > 0 and m["amplitude"] > 0]
+    return {k: v for k, v in fam.items() if v}
+
+
+def removed_families(families: Mapping[str, Sequence[Fraction]],
+                     cycles: Sequence[Fraction]) -> dict[str, list[Fraction]]:
+    """The part of each family that is a whole multiple of one of the cycles.
+
+    Exact: an order ``o`` is removed by a cycle ``c`` when ``o / c`` is an integer
+    (Fractions from the teeth, no tolerance). Families with nothing removed are dropped.
+    """
+    out = {}
+    for name, orders in families.items():
+        kept = [o for o in orders if any((o / c).denominator == 1 for c in cycles)]
+        if kept:
+            out[name] = kept
+    return out

@@ -1,0 +1,267 @@
+"""The harmonic-removal stage: what the workflow calls.
+
+* :func:`sweep_waterfalls` -- rule ``spectra``: waterfalls of the raw sweep;
+* :func:`tsa_variant` -- rule ``tsa``: one TSA variant on the sweep (residual, its
+  waterfalls, removal metrics, and the plain cascade beside a joint removal);
+* :func:`record_residuals` -- rule ``tsa_tests``: measured-like signals of a test record
+  after removal of the ``tsa.tests`` families, for identification;
+* :func:`remove`, :func:`waterfalls`, :func:`variant_metrics` -- their building blocks.
+
+Inputs and outputs follow the data contract of docs/architecture.md ("Data contract");
+the configuration is read without fallbacks (defaults are applied when it is loaded).
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Mapping, Sequence
+from fractions import Fraction
+from typing import Any
+
+import numpy as np
+import xarray as xr
+from scipy import signal
+
+from gbpipe.harmonics.families import (
+    cycle_orders,
+    excitation_families,
+    removed_families,
+    structural_modes,
+)
+from gbpipe.harmonics.metrics import removal_metrics
+from gbpipe.harmonics.spectra import order_spectrum_vs_rpm, power_spectrum_vs_rpm
+from gbpipe.harmonics.tsa import residual, residual_joint
+from gbpipe.units import TWO_PI
+
+__all__ = ["waterfalls", "remove", "variant_metrics", "sweep_waterfalls", "tsa_variant",
+           "record_residuals", "MODE_MIN_FREQUENCY"]
+
+log = logging.getLogger(__name__)
+
+#: Lowest structural mode watched by the removal metrics [Hz]: below it the bands would
+#: hold the rigid-body and control dynamics, not a resonance.
+MODE_MIN_FREQUENCY = 10.0
+
+
+def waterfalls(x: np.ndarray, fs: float, pulse_times: np.ndarray, spec: Mapping[str, Any],
+               *, pulses_per_rev: int = 1, units: str = "N m",
+               long_name: str = "torque") -> xr.Dataset:
+    """Power spectrum vs rpm and order spectrum vs rpm of one signal.
+
+    Parameters
+    ----------
+    x : numpy.ndarray
+        Signal in ``units``.
+    fs : float
+        Sample rate [Hz].
+    pulse_times : numpy.ndarray
+        HSS tachometer pulse times [s].
+    spec : mapping
+        ``cfg["spectra"]``.
+    pulses_per_rev : int
+        Tachometer pulses per HSS revolution.
+    units, long_name : str
+        Unit and name of ``x``.
+
+    Returns
+    -------
+    xarray.Dataset
+        ``power`` (rpm, frequency) and ``order_power`` (order_rpm, order) with their
+        averaging counts; the order spectrum has its own rpm bins (``order_rpm``) because
+        its frames are whole revolutions.
+    """
+    ps = power_spectrum_vs_rpm(x, fs, pulse_times=pulse_times, resolution=spec["resolution"],
+                               window=spec["window"], overlap=spec["overlap"],
+                               rpm_bins=spec["rpm_bins"], max_frequency=spec["max_frequency"],
+                               pulses_per_rev=pulses_per_rev, units=units, long_name=long_name)
+    os_ = order_spectrum_vs_rpm(x, fs, pulse_times, resolution=spec["order_resolution"],
+                                max_order=spec["max_order"], window=spec["window"],
+                                overlap=spec["overlap"], rpm_bins=spec["rpm_bins"],
+                                pulses_per_rev=pulses_per_rev, units=units, long_name=long_name)
+    os_ = os_.rename({"rpm": "order_rpm", "rpm_lower": "order_rpm_lower",
+                      "rpm_upper": "order_rpm_upper", "power": "order_power",
+                      "n_averages": "order_n_averages"})
+    for v in ("order_rpm", "order_rpm_lower", "order_rpm_upper"):
+        os_[v].attrs["long_name"] = os_[v].attrs["long_name"] + " (order spectrum)"
+    return xr.merge([ps, os_])
+
+
+def remove(x: np.ndarray, fs: float, pulse_times: np.ndarray, cycles: Sequence[Fraction],
+           tsa_cfg: Mapping[str, Any], *, pulses_per_rev: int = 1,
+           mode: str = "joint") -> np.ndarray:
+    """TSA residual of ``x`` with one or several cycle families removed.
+
+    Parameters
+    ----------
+    x, fs, pulse_times, pulses_per_rev
+        As in :func:`gbpipe.harmonics.residual`.
+    cycles : sequence of Fraction
+        Cycle orders [HSS orders] (:func:`gbpipe.harmonics.cycle_orders`).
+    tsa_cfg : mapping
+        ``n_cycles``, ``unbiased`` and ``averaging`` (one variant's, or ``cfg["tsa"]``).
+    mode : {"joint", "cascade"}
+        For several cycles (:func:`gbpipe.harmonics.residual_joint`).
+    """
+    n = int(tsa_cfg["n_cycles"])
+    opts = {"unbiased": bool(tsa_cfg["unbiased"]), "averaging": tsa_cfg["averaging"]}
+    if len(cycles) == 1:
+        return residual(x, fs, pulse_times, cycles[0], n, pulses_per_rev, **opts)
+    return residual_joint(x, fs, pulse_times, list(cycles), n, pulses_per_rev, mode=mode,
+                          **opts)
+
+
+def variant_metrics(before: np.ndarray, after: np.ndarray, fs: float,
+                    pulse_times: np.ndarray, families: Mapping[str, Sequence[Fraction]],
+                    modes: Sequence[float], spec: Mapping[str, Any], *,
+                    pulses_per_rev: int = 1) -> xr.Dataset:
+    """Attenuation per removed family and band change per mode, overall and per rpm bin.
+
+    :func:`gbpipe.harmonics.removal_metrics` with the ``cfg["spectra"]`` bins and band
+    width; the rpm dimension is renamed ``metric_rpm`` so the metrics can sit beside
+    spectra.
+    """
+    fam = {k: [float(o) for o in v] for k, v in families.items()}
+    ds = removal_metrics(before, after, fs, pulse_times, fam, list(modes),
+                         rpm_bins=spec["metric_rpm_bins"], half_width=spec["mode_half_width"],
+                         pulses_per_rev=pulses_per_rev)
+    ren = {v: f"metric_{v}" for v in ("rpm", "rpm_lower", "rpm_upper") if v in ds.variables}
+    return ds.rename(ren)
+
+
+def sweep_waterfalls(sweep: xr.Dataset, spec: Mapping[str, Any]) -> xr.Dataset:
+    """Waterfalls of the sweep signal ``spec["signal"]`` (the ``spectra`` stage)."""
+    x = sweep[spec["signal"]]
+    return waterfalls(x.values.astype(float), float(sweep.attrs["sample_rate"]),
+                      sweep.pulse_time.values, spec,
+                      pulses_per_rev=int(sweep.attrs["pulses_per_rev"]),
+                      units=x.attrs["units"], long_name=x.attrs["long_name"])
+
+
+def tsa_variant(sweep: xr.Dataset, bench: xr.Dataset, variant: str,
+                tsa_cfg: Mapping[str, Any], spec: Mapping[str, Any],
+                stages: Sequence[Mapping[str, Any]],
+                excitation: Mapping[str, Any]) -> xr.Dataset:
+    """One TSA variant on the sweep: the ``tsa`` stage.
+
+    Parameters
+    ----------
+    sweep : xarray.Dataset
+        The sweep record (``spec["signal"]``, ``pulse_time``, attributes ``sample_rate``
+        and ``pulses_per_rev``).
+    bench : xarray.Dataset
+        The bench model output (``closed_mode_frequency`` [Hz]): the modes to watch.
+    variant : str
+        Variant name (written as an attribute).
+    tsa_cfg : mapping
+        The variant: ``cycles`` (names), ``n_cycles``, ``unbiased``, ``averaging``.
+    spec : mapping
+        ``cfg["spectra"]``.
+    stages, excitation
+        ``cfg["gearbox"]["stages"]`` and ``cfg["excitation"]``.
+
+    Returns
+    -------
+    xarray.Dataset
+        The residual (time), its waterfalls (:func:`waterfalls`), the removal metrics
+        (:func:`variant_metrics`) and, for several cycles, ``cascade_attenuation`` and
+        ``cascade_attenuation_band`` of the plain cascade.
+    """
+    fs, pulses = float(sweep.attrs["sample_rate"]), sweep.pulse_time.values
+    ppr = int(sweep.attrs["pulses_per_rev"])
+    sig = sweep[spec["signal"]]
+    x = sig.values.astype(float)
+    cycles = cycle_orders(stages, tsa_cfg["cycles"])
+    families = removed_families(
+        excitation_families({"gearbox": {"stages": stages}, "excitation": excitation}), cycles)
+    modes = structural_modes(bench.closed_mode_frequency.values, MODE_MIN_FREQUENCY,
+                             spec["mode_max_frequency"], spec["mode_half_width"])
+    log.info("variant %s: cycles %s (orders %s); removed families %s", variant,
+             tsa_cfg["cycles"], [f"{float(c):.4f}" for c in cycles], list(families))
+    r = remove(x, fs, pulses, cycles, tsa_cfg, pulses_per_rev=ppr)
+    ds = waterfalls(r, fs, pulses, spec, pulses_per_rev=ppr, units=sig.attrs["units"],
+                    long_name=f"TSA residual of {sig.attrs['long_name']}")
+    met = variant_metrics(x, r, fs, pulses, families, modes, spec, pulses_per_rev=ppr)
+    ds = xr.merge([ds, met], compat="override")
+    ds["residual"] = ("time", r, {"units": sig.attrs["units"],
+                                  "long_name": f"TSA residual of {sig.attrs['long_name']}"})
+    ds = ds.assign_coords(time=sweep.time)
+    if len(cycles) > 1:
+        # the plain cascade beside the joint removal: its own figure of merit
+        rc = remove(x, fs, pulses, cycles, tsa_cfg, pulses_per_rev=ppr, mode="cascade")
+        mc = variant_metrics(x, rc, fs, pulses, families, modes, spec, pulses_per_rev=ppr)
+        for v in ("attenuation", "attenuation_band"):
+            ds[f"cascade_{v}"] = mc[v].assign_attrs(
+                long_name=mc[v].attrs["long_name"] + " (plain cascade)")
+    ds.attrs.update(variant=variant, cycles=" ".join(tsa_cfg["cycles"]),
+                    averaging=tsa_cfg["averaging"],
+                    cycle_orders=" ".join(f"{c.numerator}/{c.denominator}" for c in cycles))
+    for fam in ds.family.values:
+        log.info("%s: attenuation %.1f dB (band %.1f dB)", fam,
+                 float(ds.attenuation.sel(family=fam)),
+                 float(ds.attenuation_band.sel(family=fam)))
+    for m, f in zip(ds.mode.values, ds.mode_frequency.values, strict=True):
+        log.info("mode %.1f Hz: band change %.2f dB (all bins %.2f dB)", f,
+                 float(ds.mode_change.sel(mode=m)), float(ds.mode_change_all.sel(mode=m)))
+    return ds
+
+
+def record_residuals(record: xr.Dataset, names: Sequence[str],
+                     stages: Sequence[Mapping[str, Any]], tsa_cfg: Mapping[str, Any],
+                     keep_below: float) -> xr.Dataset:
+    """Measured-like signals of a test record after joint TSA removal (``tsa_tests``).
+
+    Parameters
+    ----------
+    record : xarray.Dataset
+        A test record with ``<name>_measured``, ``speed_gb1_hss`` [rad/s], ``pulse_time``
+        and attributes ``sample_rate``, ``pulses_per_rev``.
+    names : sequence of str
+        Signal names (without ``_measured``).
+    stages : sequence of mapping
+        Gearbox stages (for the exact cycle orders).
+    tsa_cfg : mapping
+        ``cfg["tsa"]``: ``tests`` (cycle names), ``n_cycles``, ``unbiased``.
+    keep_below : float
+        TSA acts only on the part of each signal above ``keep_below`` times the lowest
+        removed cycle frequency at the record's mean HSS speed (split by a zero-phase
+        Butterworth low-pass; the low part is added back unchanged; 0 disables the split).
+        Why: each block's mean cycle also averages whatever else is in the block; for a
+        step test that is the bench's slow step response, whose trend inside a 10-cycle
+        block becomes a sawtooth at the cycle rate in the mean cycle, and whose block
+        means form a staircase -- subtracting both would inject broadband errors far
+        larger than the harmonics. Every harmonic lies at or above the lowest cycle
+        frequency, so the split loses none of them.
+
+    Returns
+    -------
+    xarray.Dataset
+        One variable per name (time) in the unit of the signal; attributes ``test``,
+        ``profile``, ``sample_rate``, ``removed_cycles``, ``n_cycles``.
+    """
+    fs = float(record.attrs["sample_rate"])
+    pulses = np.asarray(record["pulse_time"].values, dtype=float)
+    ppr = int(record.attrs["pulses_per_rev"])
+    cycles = cycle_orders(stages, tsa_cfg["tests"])
+    removed = ", ".join(tsa_cfg["tests"])
+    sos = None
+    if cycles and keep_below > 0:
+        f_hss = float(np.mean(record["speed_gb1_hss"].values)) / TWO_PI
+        f_low = keep_below * min(float(c) for c in cycles) * f_hss
+        sos = signal.butter(6, f_low, fs=fs, output="sos")
+    ds = xr.Dataset(coords={"time": ("time", record.time.values,
+                                     {"units": "s", "long_name": "time from record start"})})
+    for name in names:
+        measured = record[f"{name}_measured"]
+        x = np.asarray(measured.values, dtype=float)
+        if cycles:
+            low = signal.sosfiltfilt(sos, x) if sos is not None else np.zeros_like(x)
+            x = low + residual_joint(x - low, fs, pulses, cycles, int(tsa_cfg["n_cycles"]),
+                                     ppr, unbiased=bool(tsa_cfg["unbiased"]), outside="keep")
+        ds[name] = ("time", x, {"units": measured.attrs.get("units", "1"),
+                                "long_name": f"{name}, measured-like after TSA removal of "
+                                             f"{removed}"})
+    ds.attrs.update(test=str(record.attrs.get("test", "")),
+                    profile=str(record.attrs.get("profile", "")),
+                    sample_rate=fs, removed_cycles=",".join(tsa_cfg["tests"]),
+                    n_cycles=int(tsa_cfg["n_cycles"]))
+    return ds

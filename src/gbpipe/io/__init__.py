@@ -1,0 +1,28 @@
+"""Input and output of every stage: NetCDF with CF-1.11 metadata and provenance, CSV
+tables, job logs, atomic writes.
+
+Public API
+----------
+write, read
+    The one NetCDF writer and reader (:mod:`gbpipe.io.netcdf`).
+write_csv
+    CSV tables (:mod:`gbpipe.io.tables`).
+setup_log
+    Send gbpipe's log records to a job's log file (:mod:`gbpipe.io.runlog`).
+atomic_path, clean_temporaries
+    Atomic output files, and the clean-up of what killed jobs left (:mod:`gbpipe.io.atomic`).
+config_sha256, file_sha256, source_files
+    Provenance (:mod:`gbpipe.io.provenance`).
+cf_units, TIME_EPOCH
+    CF unit spelling and the epoch of relative time axes (:mod:`gbpipe.io.cf`).
+"""
+
+from gbpipe.io.atomic import atomic_path, clean_temporaries
+from gbpipe.io.cf import TIME_EPOCH, cf_units
+from gbpipe.io.netcdf import read, write
+from gbpipe.io.provenance import config_sha256, file_sha256, source_files
+from gbpipe.io.runlog import setup_log
+from gbpipe.io.tables import write_csv
+
+__all__ = ["write", "read", "write_csv", "setup_log", "atomic_path", "clean_temporaries",
+           "config_sha256", "file_sha256", "source_files", "cf_units", "TIME_EPOCH"]

@@ -1,0 +1,139 @@
+"""The one NetCDF reader and writer of gbpipe.
+
+Every stage writes through :func:`write`, which refuses a variable without ``units`` and
+``long_name``, adds the provenance of the data contract (``docs/architecture.md``, "Data
+contract": gbpipe version, config hash, source files with their SHA-256, wildcards) and
+the CF-1.11 globals, encodes the dataset the CF way (:mod:`gbpipe.io.cf`) and writes it
+atomically (:mod:`gbpipe.io.atomic`). :func:`read` undoes the encoding.
+"""
+
+from __future__ import annotations
+
+import datetime as _dt
+import json
+import os
+from collections.abc import Iterable, Mapping
+from pathlib import Path
+from typing import Any
+
+import xarray as xr
+
+from gbpipe.io.atomic import atomic_path
+from gbpipe.io.cf import append_line, attr_value, check_metadata, decode, encode, encoding
+from gbpipe.io.provenance import __version__, config_sha256, jsonable, source_files
+
+__all__ = ["write", "read"]
+
+
+def write(
+    ds: xr.Dataset,
+    path: str | os.PathLike,
+    *,
+    stage: str,
+    config: Any = None,
+    wildcards: Mapping[str, Any] | None = None,
+    sources: Iterable[str | os.PathLike] = (),
+    title: str | None = None,
+    float32: bool = False,
+) -> Path:
+    """Write a dataset as CF-1.11 NetCDF-4 with provenance, atomically.
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        Every data variable and coordinate must carry ``units`` and ``long_name``.
+        A coordinate named ``time`` is taken as seconds from the record start and must
+        have ``units: s``. Not modified.
+    path : path-like
+        Target file; its folder is created if needed. An existing file is replaced only
+        once the new one is complete.
+    stage : str
+        Name of the workflow stage that made the data.
+    config : object, optional
+        The config slice the stage depends on; its SHA-256 is stored as ``config_sha256``
+        and the slice itself as JSON in ``config``.
+    wildcards : mapping, optional
+        Wildcard values of the job, stored as ``wildcard_<name>`` attributes.
+    sources : iterable of path-like, optional
+        The files the data came from (a rule's inputs, a bench file): name, size and
+        SHA-256 of each are stored as JSON in ``source_files``.
+    title : str, optional
+        Human-readable title; defaults to the dataset's ``title`` or ``"gbpipe <stage>"``.
+    float32 : bool, default False
+        Store float64 data variables as float32 (coordinates stay float64).
+
+    Returns
+    -------
+    pathlib.Path
+        The written file.
+
+    Raises
+    ------
+    ValueError
+        If a variable lacks ``units`` or ``long_name``, if ``time`` is not in seconds, or
+        if a labelled dimension's ``<dim>_label`` name is already taken.
+    """
+    check_metadata(ds)
+    path = Path(path)
+    out = ds.copy()
+    # Encodings left over from a file the data came from would override ours (and may
+    # name coordinates that no longer exist): this writer alone decides the on-disk form.
+    out.encoding = {}
+    for var in out.variables.values():
+        var.encoding = {}
+    now = _dt.datetime.now(_dt.UTC).replace(microsecond=0).isoformat()
+    cfg = config if config is not None else {}
+    out.attrs.update(
+        {
+            "Conventions": "CF-1.11",
+            "title": title or out.attrs.get("title", f"gbpipe {stage}"),
+            "institution": out.attrs.get("institution", "gbpipe"),
+            "source": f"gbpipe {__version__} stage '{stage}'",
+            "history": append_line(out.attrs.get("history"), f"{now}: gbpipe {stage}"),
+            "references": "Torque measurements from MW wind turbine gearboxes: "
+            "a system identification approach",
+            "gbpipe_version": __version__,
+            "stage": stage,
+            "config_sha256": config_sha256(cfg),
+            "config": json.dumps(cfg, sort_keys=True, default=jsonable),
+            "source_files": json.dumps(source_files(sources)),
+            "created": now,
+        }
+    )
+    for key, value in (wildcards or {}).items():
+        out.attrs[f"wildcard_{key}"] = str(value)
+    out.attrs = {k: attr_value(v) for k, v in out.attrs.items()}
+    out = encode(out)
+    enc = encoding(out, float32)
+    with atomic_path(path) as tmp:
+        out.to_netcdf(tmp, engine="netcdf4", format="NETCDF4", encoding=enc)
+    return path
+
+
+def read(path: str | os.PathLike) -> xr.Dataset:
+    """Read a gbpipe NetCDF file fully into memory, undoing the CF encoding of :func:`write`.
+
+    The relative ``time`` axis comes back as float seconds with ``units: s``; labelled
+    dimensions get their string (or unsorted) coordinate back; units that :func:`write`
+    had to respell or replace come back as the producer wrote them.
+
+    Parameters
+    ----------
+    path : path-like
+        A file written by :func:`write`.
+
+    Returns
+    -------
+    xarray.Dataset
+
+    Raises
+    ------
+    FileNotFoundError
+        If there is no file at ``path``.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise FileNotFoundError(f"no NetCDF file at {path}: run the stage that makes it first")
+    with xr.open_dataset(path, engine="netcdf4", decode_times=False) as ds:
+        ds = ds.load()
+    return decode(ds)

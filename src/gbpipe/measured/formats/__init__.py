@@ -1,0 +1,74 @@
+"""Readers of bench file formats, one module per format, behind one small interface.
+
+Every reader is a :class:`Source`: ``names()`` lists the channel addresses a mapping may
+use, ``read(name)`` returns a :class:`gbpipe.measured.channels.Channel`, ``prefetch(names)``
+lets a text format read several columns in one pass, ``close()`` releases the file.
+:func:`open_source` picks the reader from ``format:`` or the file suffix and refuses a
+missing or empty file before any parsing.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Protocol
+
+from gbpipe.errors import DataError
+from gbpipe.measured.channels import Channel
+from gbpipe.measured.formats import delimited, mat, mdf, tdms, uff
+from gbpipe.measured.spec import FileSpec
+
+__all__ = ["Source", "open_source", "FORMATS", "format_of"]
+
+#: format name -> (reader class, file suffixes)
+FORMATS = {
+    "tdms": (tdms.TdmsSource, (".tdms",)),
+    "uff": (uff.UffSource, (".uff", ".unv", ".uf")),
+    "mat": (mat.MatSource, (".mat",)),
+    "csv": (delimited.DelimitedSource, (".csv", ".tsv", ".txt")),
+    "mdf": (mdf.MdfSource, (".mf4", ".mdf")),  # ".dat" is MDF3 or text: give format:
+}
+
+
+class Source(Protocol):
+    """What every format reader offers."""
+
+    def names(self) -> list[str]: ...
+
+    def read(self, name: str) -> Channel: ...
+
+    def prefetch(self, names: list[str]) -> None: ...
+
+    def close(self) -> None: ...
+
+
+def format_of(path: str | Path, fmt: str | None = None) -> str:
+    """Format name from ``fmt`` (``format:`` of the mapping) or the suffix of ``path``."""
+    if fmt is not None:
+        if fmt not in FORMATS:
+            raise DataError(f"{path}: field 'format'",
+                            f"unknown format {fmt!r}; known: {', '.join(FORMATS)}")
+        return fmt
+    suffix = Path(path).suffix.lower()
+    for name, (_, suffixes) in FORMATS.items():
+        if suffix in suffixes:
+            return name
+    raise DataError(f"{path}: field 'path'", f"cannot tell the format from the suffix "
+                    f"{suffix!r}: give format: one of {', '.join(FORMATS)}")
+
+
+def open_source(fspec: FileSpec, base_dir: str | Path = ".") -> Source:
+    """Open the file of ``fspec`` (path relative to ``base_dir``) with its format's reader.
+
+    Raises
+    ------
+    gbpipe.errors.DataError
+        For a missing or empty file, an unknown format, or a file its reader rejects.
+    """
+    path = Path(base_dir) / fspec.path
+    if not path.is_file():
+        raise DataError(f"{path}: field 'path'", f"no such file (files.{fspec.key}); "
+                        f"paths are relative to {Path(base_dir).resolve()}")
+    if path.stat().st_size == 0:
+        raise DataError(f"{path}", "the file is empty (0 bytes)")
+    cls = FORMATS[format_of(path, fspec.format)][0]
+    return cls(path, fspec)

@@ -1,0 +1,202 @@
+"""The ``measured:`` mapping of one record, checked before any file is opened.
+
+:func:`parse` turns one entry of the config's ``measured:`` mapping into frozen
+dataclasses. Every key is checked against the keys this reader knows, so a typo
+(``chanel:``) is refused with the key path and the closest valid key, instead of being
+silently ignored. The format is described in ``docs/measured.md``.
+"""
+
+from __future__ import annotations
+
+import difflib
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any
+
+from gbpipe.errors import ConfigError
+
+__all__ = ["FileSpec", "SignalSpec", "RecordSpec", "parse", "GAP_POLICIES"]
+
+GAP_POLICIES = ("refuse", "split")
+_RECORD_KEYS = ("files", "sample_rate", "signals", "gaps")
+_FILE_KEYS = ("path", "format", "time", "sample_rate", "delimiter", "decimal", "header",
+              "time_unit")
+_SIGNAL_KEYS = ("file", "channel", "unit", "scale", "offset", "quantity", "pulses_per_rev",
+                "threshold", "hysteresis", "edge", "range", "tacho")
+_QUANTITIES = ("value", "angle", "tacho")
+
+
+@dataclass(frozen=True)
+class FileSpec:
+    """One source file: ``path`` and how to read its time base."""
+
+    key: str
+    path: str
+    format: str | None = None
+    time: str | None = None
+    sample_rate: float | None = None
+    delimiter: str | None = None
+    decimal: str = "."
+    header: int = 0
+    time_unit: str = "s"
+
+
+@dataclass(frozen=True)
+class SignalSpec:
+    """One record signal and the channel it comes from."""
+
+    name: str
+    file: str
+    channel: str
+    unit: str | None = None
+    scale: float = 1.0
+    offset: float = 0.0
+    quantity: str = "value"
+    pulses_per_rev: int | None = None
+    threshold: float | None = None
+    hysteresis: float | None = None
+    edge: str = "rising"
+    range: tuple[float, float] | None = None
+    tacho: str = "analog"
+
+
+@dataclass(frozen=True)
+class RecordSpec:
+    """One record: its files, signals, grid rate and gap policy."""
+
+    name: str
+    files: dict[str, FileSpec]
+    signals: dict[str, SignalSpec]
+    sample_rate: float
+    gaps: str = "refuse"
+    interpolate_upto: int = 0
+
+
+def _unknown(field: str, key: str, valid: tuple[str, ...]) -> ConfigError:
+    close = difflib.get_close_matches(key, valid, n=1)
+    hint = f"; did you mean '{close[0]}'?" if close else ""
+    return ConfigError(f"{field}.{key}", f"unknown key{hint} Valid keys: {', '.join(valid)}")
+
+
+def _mapping(value: Any, field: str, valid: tuple[str, ...]) -> Mapping:
+    if not isinstance(value, Mapping):
+        raise ConfigError(field, f"must be a mapping; got {type(value).__name__}")
+    for key in value:
+        if key not in valid:
+            raise _unknown(field, str(key), valid)
+    return value
+
+
+def _positive(value: Any, field: str) -> float:
+    if isinstance(value, bool) or not isinstance(value, int | float) or not value > 0:
+        raise ConfigError(field, f"must be a positive number [Hz]; got {value!r}")
+    return float(value)
+
+
+def _number(value: Any, field: str) -> float:
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        raise ConfigError(field, f"must be a number; got {value!r}")
+    return float(value)
+
+
+def _file(key: str, value: Any, field: str) -> FileSpec:
+    if isinstance(value, str):
+        value = {"path": value}
+    m = _mapping(value, field, _FILE_KEYS)
+    if "path" not in m:
+        raise ConfigError(f"{field}.path", "missing: give the file's path")
+    rate = m.get("sample_rate")
+    return FileSpec(
+        key=key, path=str(m["path"]), format=m.get("format"), time=m.get("time"),
+        sample_rate=None if rate is None else _positive(rate, f"{field}.sample_rate"),
+        delimiter=m.get("delimiter"), decimal=str(m.get("decimal", ".")),
+        header=_count(m.get("header", 0), f"{field}.header"),
+        time_unit=str(m.get("time_unit", "s")))
+
+
+def _count(value: Any, field: str) -> int:
+    if isinstance(value, bool) or not isinstance(value, int) or value < 0:
+        raise ConfigError(field, f"must be a row number >= 0; got {value!r}")
+    return value
+
+
+def _signal(name: str, value: Any, field: str, files: Mapping[str, FileSpec]) -> SignalSpec:
+    m = _mapping(value, field, _SIGNAL_KEYS)
+    for key in ("file", "channel"):
+        if key not in m:
+            raise ConfigError(f"{field}.{key}", f"missing: give the source {key}")
+    if m["file"] not in files:
+        close = difflib.get_close_matches(str(m["file"]), list(files), n=1)
+        hint = f"; did you mean '{close[0]}'?" if close else ""
+        raise ConfigError(f"{field}.file", f"'{m['file']}' is not a key of files{hint} "
+                          f"Files: {', '.join(files)}")
+    quantity = m.get("quantity", "value")
+    if quantity not in _QUANTITIES:
+        raise _unknown(f"{field}.quantity", str(quantity), _QUANTITIES)
+    ppr = m.get("pulses_per_rev")
+    if quantity == "tacho":
+        if isinstance(ppr, bool) or not isinstance(ppr, int) or ppr < 1:
+            raise ConfigError(f"{field}.pulses_per_rev",
+                              f"a tacho needs a positive integer pulses_per_rev; got {ppr!r}")
+    rng = m.get("range")
+    if rng is not None:
+        if not (isinstance(rng, list | tuple) and len(rng) == 2 and rng[0] < rng[1]):
+            raise ConfigError(f"{field}.range", f"must be [low, high]; got {rng!r}")
+        rng = (float(rng[0]), float(rng[1]))
+    edge = m.get("edge", "rising")
+    if edge not in ("rising", "falling"):
+        raise ConfigError(f"{field}.edge", f"must be 'rising' or 'falling'; got {edge!r}")
+    tacho = m.get("tacho", "analog")
+    if tacho not in ("analog", "count"):
+        raise ConfigError(f"{field}.tacho", f"must be 'analog' or 'count'; got {tacho!r}")
+    opt = {k: _number(m[k], f"{field}.{k}") for k in ("threshold", "hysteresis") if k in m}
+    return SignalSpec(
+        name=name, file=str(m["file"]), channel=str(m["channel"]), unit=m.get("unit"),
+        scale=_number(m.get("scale", 1.0), f"{field}.scale"),
+        offset=_number(m.get("offset", 0.0), f"{field}.offset"), quantity=quantity,
+        pulses_per_rev=ppr, edge=edge, range=rng, tacho=tacho, **opt)
+
+
+def parse(spec: Mapping[str, Any], name: str = "record") -> RecordSpec:
+    """Check one entry of ``measured:`` and return it as a :class:`RecordSpec`.
+
+    Parameters
+    ----------
+    spec : mapping
+        The entry: ``files``, ``sample_rate``, ``signals``, optional ``gaps``.
+    name : str
+        Record name, used in the key paths of error messages (``measured.<name>...``).
+
+    Raises
+    ------
+    gbpipe.errors.ConfigError
+        Naming the key path of an unknown, missing or invalid key.
+    """
+    root = f"measured.{name}"
+    m = _mapping(spec, root, _RECORD_KEYS)
+    for key in ("files", "sample_rate", "signals"):
+        if key not in m:
+            raise ConfigError(f"{root}.{key}", "missing")
+    files_in = m["files"]
+    if not isinstance(files_in, Mapping) or not files_in:
+        raise ConfigError(f"{root}.files", "must be a non-empty mapping key -> file")
+    files = {str(k): _file(str(k), v, f"{root}.files.{k}") for k, v in files_in.items()}
+    sig_in = m["signals"]
+    if not isinstance(sig_in, Mapping) or not sig_in:
+        raise ConfigError(f"{root}.signals", "must be a non-empty mapping signal -> source")
+    signals = {str(k): _signal(str(k), v, f"{root}.signals.{k}", files)
+               for k, v in sig_in.items()}
+    gaps, upto = m.get("gaps", "refuse"), 0
+    if isinstance(gaps, Mapping):
+        _mapping(gaps, f"{root}.gaps", ("interpolate_upto",))
+        upto = gaps.get("interpolate_upto")
+        if isinstance(upto, bool) or not isinstance(upto, int) or upto < 1:
+            raise ConfigError(f"{root}.gaps.interpolate_upto",
+                              f"must be a positive number of samples; got {upto!r}")
+        gaps = "interpolate"
+    elif gaps not in GAP_POLICIES:
+        raise ConfigError(f"{root}.gaps", f"must be refuse, split or "
+                          f"{{interpolate_upto: N}}; got {gaps!r}")
+    return RecordSpec(name=name, files=files, signals=signals,
+                      sample_rate=_positive(m["sample_rate"], f"{root}.sample_rate"),
+                      gaps=gaps, interpolate_upto=upto)

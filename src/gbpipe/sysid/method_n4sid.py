@@ -1,0 +1,64 @@
+"""N4SID (Van Overschee & De Moor, Automatica 30, 1994), unweighted, with shift invariance.
+
+The SVD is taken of the oblique projection ``O = Y_f /_{U_f} Z_p`` (future outputs along the
+future inputs onto the past data). ``A`` and ``C`` then come from the shift invariance of the
+extended observability matrix and ``B, D`` from a linear regression that needs no state
+sequence (the "robust" variant), unlike the simple state-sequence N4SID whose finite-horizon
+bias does not vanish with more data.
+"""
+
+from __future__ import annotations
+
+from gbpipe.sysid.open_loop import identify_open_loop
+from gbpipe.sysid.subspace_model import SubspaceModel
+
+__all__ = ["n4sid"]
+
+
+def n4sid(
+    u: object,
+    y: object,
+    order: int | str,
+    horizon: int,
+    dt: float = 1.0,
+    *,
+    past: int | None = None,
+    feedthrough: bool = False,
+    max_order: int | None = None,
+) -> SubspaceModel:
+    """Identify a state-space model with N4SID (oblique projection, shift invariance).
+
+    Parameters
+    ----------
+    u : array_like, shape (N,) or (N, m)
+        Input record (any unit). Not modified.
+    y : array_like, shape (N,) or (N, l)
+        Output record, same length. Not modified.
+    order : int or "auto"
+        State dimension; ``"auto"`` picks it from the singular values. At most
+        ``(horizon - 1) * l``.
+    horizon : int
+        Future window ``f`` in samples, >= 2.
+    dt : float
+        Sample time in seconds.
+    past : int, optional
+        Past window in samples, ``>= horizon``; default ``horizon``.
+    feedthrough : bool
+        Estimate ``D`` (default ``False``: ``D = 0``).
+    max_order : int, optional
+        Upper bound of the ``"auto"`` order.
+
+    Returns
+    -------
+    SubspaceModel
+
+    Raises
+    ------
+    DataError
+        Bad data (NaN/inf, mismatched lengths, too short, an all-zero channel).
+    ConfigError
+        ``past < horizon`` or an order larger than the horizon allows.
+    ExcitationError
+        The input is not persistently exciting for the order (:mod:`.excitation`).
+    """
+    return identify_open_loop(u, y, order, horizon, dt, past, feedthrough, max_order, "n4sid")

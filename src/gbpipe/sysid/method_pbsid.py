@@ -1,0 +1,187 @@
+"""Predictor-based subspace identification (PBSID-opt), consistent with closed-loop data.
+
+Reference: van der Veen, van Wingerden, Bergamasco, Lovera and Verhaegen, "Closed-loop subspace
+identification methods: an overview", IET Control Theory & Applications 7(10), 2013, and
+Chiuso, "The role of vector autoregressive modeling in predictor-based subspace
+identification", Automatica 43, 2007.
+
+The innovation model ``x+ = A x + B u + K e``, ``y = C x + D u + e`` is rewritten as the
+predictor ``x+ = (A - K C) x + (B - K D) u + K y``. Its state is a function of the past inputs
+and outputs only, ``x[t] ~= sum_j Atil^(j-1) Btil z[t-j]`` once ``Atil^p ~= 0``, so feedback
+(``u`` correlated with past noise) does not bias the estimate, unlike MOESP/N4SID whose
+projections assume future inputs uncorrelated with the noise.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from gbpipe.errors import ConfigError
+from gbpipe.sysid.checks import (
+    as_2d,
+    check_dt,
+    check_order,
+    check_past_future,
+    check_window,
+    prepare,
+)
+from gbpipe.sysid.excitation import excitation_limit
+from gbpipe.sysid.hankel import hankel_gram, lstsq_r, window_r_factor
+from gbpipe.sysid.kalman import stable_predictor_gain
+from gbpipe.sysid.order import check_order_rank, select_order
+from gbpipe.sysid.subspace_model import SubspaceModel, from_scaled
+
+__all__ = ["pbsid"]
+
+
+def pbsid(
+    u: object,
+    y: object,
+    order: int | str,
+    past: int,
+    future: int | None = None,
+    dt: float = 1.0,
+    *,
+    feedthrough: bool = False,
+    regularization: float = 0.0,
+    max_order: int | None = None,
+) -> SubspaceModel:
+    """Identify an innovation-form state-space model with PBSID-opt.
+
+    Steps: (1) VARX regression of ``y[t]`` on the past window ``z[t-p..t-1]``, ``z = [u; y]``
+    (and on ``u[t]`` when ``feedthrough``); (2) the product of the extended observability and
+    predictor controllability matrices, ``Gamma_f K_p``, is assembled from the VARX
+    coefficients (the predictor Markov parameters); (3) its SVD weighted by the past data
+    gives the order and the state sequence ``x[t] = S_n^(-1/2) U_n' Gamma_f K_p z_p[t]``;
+    (4) ``C, D`` from ``y = C x + D u + e`` and ``A, B, K`` from ``x+ = A x + B u + K e`` by
+    least squares. Every step works on the triangular factor of the data matrix,
+    accumulated in chunks, so memory is O(N).
+
+    Parameters
+    ----------
+    u : array_like, shape (N,) or (N, m)
+        Input record (any unit; channels are scaled internally). Not modified.
+    y : array_like, shape (N,) or (N, l)
+        Output record, same length as ``u``. Not modified.
+    order : int or "auto"
+        State dimension ``n``; ``"auto"`` picks it from the singular values.
+    past : int
+        Past window ``p`` in samples (VARX order). It must be long enough for the predictor
+        to forget its initial state: ``|eig(A - K C)|^p << 1``.
+    future : int, optional
+        Future window ``f`` in samples (block rows of ``Gamma_f``), ``f <= p``; default ``p``.
+    dt : float
+        Sample time in seconds.
+    feedthrough : bool
+        Estimate ``D``. The default ``False`` is the D-free variant (``D = 0``); keep it for
+        closed-loop data whose controller reacts to the current output sample, since then
+        ``u[t]`` depends on ``e[t]`` and a D estimate would be biased.
+    regularization : float
+        Tikhonov weight of the VARX step, relative to the (unit) scaled signal power; 0 (off)
+        by default. Helps with short or poorly exciting records.
+    max_order : int, optional
+        Upper bound of the ``"auto"`` order; default ``f * l``.
+
+    Returns
+    -------
+    SubspaceModel
+        With ``A - K C`` guaranteed stable.
+
+    Raises
+    ------
+    DataError
+        NaN/inf in the data, mismatched lengths, a record too short for the windows, an
+        all-zero channel.
+    ConfigError
+        ``past < future``, negative ``regularization``, or an order larger than
+        ``future * outputs``.
+    ExcitationError
+        The input is not persistently exciting for the order (:mod:`.excitation`): its
+        block-Hankel matrix over the ``past + 1`` window lacks the rank the order needs.
+    """
+    p = check_window(past, "past")
+    f = p if future is None else check_window(future, "future")
+    # The predictor rows of Gamma_f K_p need p >= f VARX coefficients.
+    check_past_future(p, f, "future")
+    dt = check_dt(dt)
+    if not np.isfinite(regularization) or regularization < 0:
+        raise ConfigError("regularization", f"must be >= 0, got {regularization!r}")
+    # Validate shapes first so the order bound below knows the number of outputs.
+    m0 = as_2d(u, "u").shape[1]
+    l0 = as_2d(y, "y").shape[1]
+    c0 = m0 + l0
+    width = (p + 1) * c0
+    n_fixed = check_order(order, f * l0, f"future={f} block rows x {l0} outputs")
+    data = prepare(
+        u, y, min_samples=p + width + 1,
+        window_desc=f"past={p} with {c0} channels ({width} regressors)",
+    )
+    m, l_ = data.n_inputs, data.n_outputs
+    c = m + l_
+    pc = p * c
+
+    # Window at time t: z[t-p], ..., z[t-1], z[t] (lag-major, channel-minor), so the VARX
+    # regressors [z_p, u_t] lead the column order and the output y_t comes last.
+    cols = np.array([(lag, ch) for lag in range(p + 1) for ch in range(c)])
+    gram = hankel_gram(data.z, p + 1)
+    pe_rank, pe_cap = excitation_limit(
+        gram, m, p + 1, n_fixed, feedthrough, f"past {p} + the current sample"
+    )
+    r, n_win = window_r_factor(data.z, p + 1, cols, gram=gram)
+
+    # (1) VARX: y_t = sum_j Xi_j z[t-j] (+ D u_t) + e_t.
+    k_reg = pc + (m if feedthrough else 0)
+    i_y = np.arange(pc + m, pc + c)
+    theta = lstsq_r(r[:k_reg, :k_reg], r[:k_reg, i_y], regularization)  # (k_reg, l)
+    xi = theta[:pc].T  # (l, pc): block at lag index L multiplies z[t - p + L]
+
+    # (2) Gamma_f K_p: block row i multiplies z[t-j] by Xi_{i+j} (zero when i + j > p, the
+    # truncation Atil^p ~= 0).
+    gk = np.zeros((f * l_, pc))
+    for i in range(f):
+        # z[t-j] sits at lag index p - j; Xi_{i+j} at lag index p - i - j.
+        gk[i * l_: (i + 1) * l_, i * c:] = xi[:, : pc - i * c]
+
+    # (3) SVD of Gamma_f K_p Z_p through the factor: Z_p' = Q R[:, :pc].
+    uu, s, _ = np.linalg.svd(gk @ r[:pc, :pc].T, full_matrices=False)
+    if n_fixed is None:
+        top = f * l_
+        n = select_order(s, min(max_order or top, top, top if pe_cap is None else pe_cap))
+    else:
+        n = n_fixed
+    check_order_rank(s, n)
+    t_x = (uu[:, :n] / np.sqrt(s[:n])).T @ gk  # (n, pc): x[t] = t_x @ z_p[t]
+
+    # Every signal below is a linear combination of window columns (coefficient matrices).
+    width = cols.shape[0]
+    cx = np.zeros((width, n))
+    cx[:pc] = t_x.T
+    cx_next = np.zeros((width, n))
+    cx_next[c:] = t_x.T  # x[t+1] = t_x @ [z[t-p+1] .. z[t]]: lag indices 1..p
+    cu = np.zeros((width, m))
+    cu[pc + np.arange(m), np.arange(m)] = 1.0
+    cy = np.zeros((width, l_))
+    cy[i_y, np.arange(l_)] = 1.0
+
+    # (4a) C, D from y = C x + D u + e.
+    reg_cd = np.hstack([cx, cu]) if feedthrough else cx
+    sol = lstsq_r(r @ reg_cd, r @ cy)
+    cmat = sol[:n].T
+    dmat = sol[n:].T if feedthrough else np.zeros((l_, m))
+    ce = cy - cx @ cmat.T - cu @ dmat.T
+    # (4b) A, B, K from x+ = A x + B u + K e.
+    sol = lstsq_r(r @ np.hstack([cx, cu, ce]), r @ cx_next)
+    amat, bmat, kmat = sol[:n].T, sol[n: n + m].T, sol[n + m:].T
+
+    re = r @ ce
+    noise_cov = re.T @ re
+    w = r @ (cx_next - cx @ amat.T - cu @ bmat.T)
+    kmat = stable_predictor_gain(amat, cmat, kmat, w.T @ w, noise_cov, w.T @ re)
+
+    return from_scaled(
+        amat, bmat, cmat, dmat, kmat, noise_cov, data.u_scale, data.y_scale,
+        singular_values=s, dt=dt, method="pbsid", order=n, past=p, future=f,
+        info={"n_windows": n_win, "feedthrough": feedthrough,
+              "regularization": regularization, "input_hankel_rank": pe_rank.total,
+              "input_hankel_depth": pe_rank.depth},
+    )

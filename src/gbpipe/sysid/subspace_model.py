@@ -1,0 +1,248 @@
+"""Result type of the subspace methods: a discrete-time innovation-form state-space model.
+
+``x[k+1] = A x[k] + B u[k] + K e[k]``, ``y[k] = C x[k] + D u[k] + e[k]``, ``cov(e) = noise_cov``.
+Its deterministic part ``(A, B, C, D, dt)`` is a :class:`gbpipe.lti.NamedSS` (:attr:`ss`);
+simulation, frequency response and fit are those of the one LTI core, :mod:`gbpipe.lti`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from gbpipe.errors import DataError
+from gbpipe.lti import NamedSS, dlsim, fit_percent, frf
+from gbpipe.sysid.checks import as_2d, check_finite
+
+__all__ = ["SubspaceModel", "from_scaled", "free_response"]
+
+
+def free_response(a: np.ndarray, c: np.ndarray, n_samples: int) -> np.ndarray:
+    """Output of every unit initial state: ``out[k, :, i] = (C A^k)[:, i]``.
+
+    Each output row ``r`` is the impulse response of the transposed system
+    ``s+ = A' s + C[r]' v`` read from its state (``s[k + 1] = (A')^k C[r]'``), so one exact
+    simulation per output gives all ``n`` free responses.
+
+    Parameters
+    ----------
+    a : ndarray, shape (n, n)
+    c : ndarray, shape (l, n)
+    n_samples : int
+
+    Returns
+    -------
+    ndarray, shape (n_samples, l, n)
+    """
+    n = a.shape[0]
+    out = np.empty((n_samples, c.shape[0], n))
+    pulse = np.zeros((n_samples + 1, 1))
+    pulse[0] = 1.0
+    for r in range(c.shape[0]):
+        out[:, r, :] = dlsim(a.T, c[r][:, None], np.eye(n), np.zeros((n, 1)), pulse)[1:]
+    return out
+
+
+def _freeze(x: np.ndarray) -> np.ndarray:
+    arr = np.array(x, dtype=float, copy=True)
+    arr.flags.writeable = False
+    return arr
+
+
+@dataclass(frozen=True)
+class SubspaceModel:
+    """Identified discrete-time model in innovation form.
+
+    ``x[k+1] = A x[k] + B u[k] + K e[k]``, ``y[k] = C x[k] + D u[k] + e[k]``.
+    Units are those of the data passed to the identification: B maps input units to state,
+    C maps state to output units, ``noise_cov`` is in output units squared.
+
+    Attributes
+    ----------
+    A, B, C, D, K : ndarray
+        System matrices, shapes (n, n), (n, m), (l, n), (l, m), (n, l).
+    noise_cov : ndarray, shape (l, l)
+        Covariance of the innovation ``e``.
+    singular_values : ndarray
+        Singular values used for the order decision (of the channel-scaled data, normalised
+        per window, so they are comparable between records of different length).
+    dt : float
+        Sample time in seconds.
+    method : str
+        ``"pbsid"``, ``"moesp"`` or ``"n4sid"``.
+    order : int
+        State dimension ``n``.
+    past, future : int
+        Window lengths used, in samples.
+    info : dict
+        Method details (number of windows, feedthrough, input Hankel rank, ...).
+    """
+
+    A: np.ndarray
+    B: np.ndarray
+    C: np.ndarray
+    D: np.ndarray
+    K: np.ndarray
+    noise_cov: np.ndarray
+    singular_values: np.ndarray
+    dt: float
+    method: str
+    order: int
+    past: int = 0
+    future: int = 0
+    info: dict = field(default_factory=dict, compare=False, repr=False)
+
+    def __post_init__(self) -> None:
+        for name in ("A", "B", "C", "D", "K", "noise_cov", "singular_values"):
+            object.__setattr__(self, name, _freeze(getattr(self, name)))
+
+    @property
+    def n_inputs(self) -> int:
+        """Number of input channels ``m``."""
+        return self.B.shape[1]
+
+    @property
+    def n_outputs(self) -> int:
+        """Number of output channels ``l``."""
+        return self.C.shape[0]
+
+    @property
+    def ss(self) -> NamedSS:
+        """Deterministic part ``(A, B, C, D)`` as a discrete :class:`gbpipe.lti.NamedSS`.
+
+        Signals are named ``u[j]``, ``y[i]`` and states ``x[k]`` (sysid sees no names).
+        For a ``control.StateSpace``: ``gbpipe.lti.control_io.to_control(model.ss)``.
+        """
+        return NamedSS(
+            A=self.A, B=self.B, C=self.C, D=self.D,
+            states=[f"x[{k}]" for k in range(self.order)],
+            inputs=[f"u[{j}]" for j in range(self.n_inputs)],
+            outputs=[f"y[{i}]" for i in range(self.n_outputs)],
+            dt=self.dt,
+        )
+
+    @property
+    def poles(self) -> np.ndarray:
+        """Eigenvalues of ``A`` (discrete-time, dimensionless)."""
+        return np.linalg.eigvals(self.A)
+
+    def is_stable(self) -> bool:
+        """True when every eigenvalue of ``A`` lies strictly inside the unit circle."""
+        return bool(np.all(np.abs(self.poles) < 1.0))
+
+    def frf(self, freq_hz: object) -> np.ndarray:
+        """Frequency response ``C (z I - A)^-1 B + D`` at ``z = exp(2j pi f dt)``.
+
+        Parameters
+        ----------
+        freq_hz : array_like
+            Frequencies in Hz (any shape is flattened).
+
+        Returns
+        -------
+        ndarray, complex, shape (n_freq, l, m)
+        """
+        f = np.atleast_1d(np.asarray(freq_hz, dtype=float)).ravel()
+        check_finite(f[:, None], "freq_hz")
+        return frf(self.ss, f)
+
+    def _check_u(self, u: object, name: str = "u") -> np.ndarray:
+        ua = as_2d(u, name)
+        if ua.shape[1] != self.n_inputs:
+            raise DataError(
+                name, f"{name} has {ua.shape[1]} channels but the model has {self.n_inputs} "
+                "inputs"
+            )
+        check_finite(ua, name)
+        return ua
+
+    def simulate(self, u: object, x0: object = None) -> np.ndarray:
+        """Noise-free output for input ``u`` (shape (N,) or (N, m)) from state ``x0``.
+
+        Parameters
+        ----------
+        u : array_like
+            Input samples in the model's input units.
+        x0 : array_like, shape (n,), optional
+            Initial state; zero by default.
+
+        Returns
+        -------
+        ndarray, shape (N, l)
+        """
+        ua = self._check_u(u)
+        if x0 is not None:
+            x0 = np.asarray(x0, dtype=float).reshape(self.order)
+        return dlsim(self.A, self.B, self.C, self.D, ua, x0)
+
+    def estimate_x0(self, u: object, y: object) -> np.ndarray:
+        """Least-squares initial state for the simulation of ``u`` against ``y``.
+
+        Parameters
+        ----------
+        u, y : array_like
+            Input and output records (same length; shapes (N,) or (N, channels)).
+
+        Returns
+        -------
+        ndarray, shape (n,)
+        """
+        ua = self._check_u(u)
+        ya = as_2d(y, "y")
+        check_finite(ya, "y")
+        if ya.shape != (ua.shape[0], self.n_outputs):
+            raise DataError(
+                "y", f"y must have shape ({ua.shape[0]}, {self.n_outputs}) to match u and "
+                f"the model, got {ya.shape}"
+            )
+        resid = ya - dlsim(self.A, self.B, self.C, self.D, ua)
+        free = free_response(self.A, self.C, ua.shape[0])
+        ok = np.all(np.isfinite(free), axis=(1, 2))
+        # An unstable model's free response overflows; fit x0 on the finite head only.
+        stop = ua.shape[0] if ok.all() else int(np.argmin(ok))
+        phi = free[:stop].reshape(-1, self.order)
+        x0, *_ = np.linalg.lstsq(phi, resid[:stop].ravel(), rcond=None)
+        return x0
+
+    def fit(self, u: object, y: object, x0: object = "estimate") -> np.ndarray:
+        """Simulation fit in percent per output: ``100 (1 - ||y - y_sim|| / ||y - mean(y)||)``.
+
+        Parameters
+        ----------
+        u, y : array_like
+            Validation input and output records.
+        x0 : "estimate", None or array_like
+            Initial state: least-squares estimate (default), zero (None), or given.
+
+        Returns
+        -------
+        ndarray, shape (l,)
+        """
+        ya = as_2d(y, "y")
+        if isinstance(x0, str) and x0 == "estimate":
+            x0 = self.estimate_x0(u, ya)
+        return fit_percent(ya, self.simulate(u, x0))
+
+
+def from_scaled(
+    a: np.ndarray,
+    b: np.ndarray,
+    c: np.ndarray,
+    d: np.ndarray,
+    k: np.ndarray,
+    noise_cov: np.ndarray,
+    u_scale: np.ndarray,
+    y_scale: np.ndarray,
+    **meta,
+) -> SubspaceModel:
+    """Undo the channel scaling ``u_s = u / u_scale``, ``y_s = y / y_scale`` of a model."""
+    return SubspaceModel(
+        A=a,
+        B=b / u_scale[None, :],
+        C=y_scale[:, None] * c,
+        D=y_scale[:, None] * d / u_scale[None, :],
+        K=k / y_scale[None, :],
+        noise_cov=y_scale[:, None] * noise_cov * y_scale[None, :],
+        **meta,
+    )

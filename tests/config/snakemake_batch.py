@@ -1,0 +1,60 @@
+"""Run ``snakemake -n`` on many configurations, two at a time, paying its start-up once.
+
+Usage: ``python snakemake_batch.py CASES.json RESULTS.json``. CASES.json lists
+``{"dir": ..., "argv": [...]}``; each case runs Snakemake's own command-line entry point
+(``snakemake.cli.main``, what the ``snakemake`` command calls) in a forked child whose
+working directory is ``dir`` and whose stdout/stderr go to ``dir/stdout``/``dir/stderr``.
+Snakemake and gbpipe are imported once, before forking, which saves ~3 s per case.
+RESULTS.json gets the exit status of each case, in order.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import sys
+
+import snakemake.cli
+
+import gbpipe.config  # noqa: F401  (imported once here: the Snakefile imports it)
+
+
+def _child(case: dict) -> None:
+    os.chdir(case["dir"])
+    for fd, name in ((1, "stdout"), (2, "stderr")):
+        out = os.open(os.path.join(case["dir"], name), os.O_WRONLY | os.O_CREAT | os.O_TRUNC)
+        os.dup2(out, fd)
+    try:
+        snakemake.cli.main(case["argv"])
+        code = 0
+    except SystemExit as exc:
+        code = exc.code if isinstance(exc.code, int) else 1
+    except BaseException:
+        code = 1
+    sys.stdout.flush()
+    sys.stderr.flush()
+    os._exit(code)
+
+
+def main(cases_path: str, results_path: str, jobs: int = 2) -> None:
+    with open(cases_path) as fh:
+        cases = json.load(fh)
+    codes: dict[int, int] = {}
+    running: dict[int, int] = {}
+    for i, case in enumerate(cases):
+        while len(running) >= jobs:
+            pid, status = os.wait()
+            codes[running.pop(pid)] = os.waitstatus_to_exitcode(status)
+        pid = os.fork()
+        if pid == 0:
+            _child(case)
+        running[pid] = i
+    while running:
+        pid, status = os.wait()
+        codes[running.pop(pid)] = os.waitstatus_to_exitcode(status)
+    with open(results_path, "w") as fh:
+        json.dump([codes[i] for i in range(len(cases))], fh)
+
+
+if __name__ == "__main__":
+    main(sys.argv[1], sys.argv[2])

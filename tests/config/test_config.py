@@ -1,0 +1,184 @@
+"""Loading, defaults and derived defaults of the configuration (the refusals are in
+test_bad_configs.py)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+
+from gbpipe import lti, model
+from gbpipe.config import Config, ConfigError, load, merge, order_bound, schema, validate
+from gbpipe.errors import UnstableGain
+
+ROOT = Path(__file__).resolve().parents[2]
+CONFIG, CI_CONFIG = ROOT / "config" / "config.yaml", ROOT / "config" / "ci.yaml"
+EXAMPLES = sorted((ROOT / "config" / "examples").glob("*.yaml"))
+
+
+def _raw(path=CONFIG):
+    with open(path) as fh:
+        return yaml.safe_load(fh)
+
+
+@pytest.mark.parametrize("overlays", [(), (CI_CONFIG,), *[(e,) for e in EXAMPLES]],
+                         ids=["config", "ci", *[e.stem for e in EXAMPLES]])
+def test_shipped_configs_load(overlays):
+    cfg = load(CONFIG, *overlays)
+    assert isinstance(cfg, Config)
+    assert isinstance(cfg["gearbox"]["stiffness"][0], float)   # 1.5e8 read as a number
+
+
+def _minimal():
+    """config.yaml reduced to the keys the schema requires (no defaults written)."""
+    full = _raw()
+    req = schema()["required"]
+    cfg = {k: full[k] for k in req}
+    cfg["gearbox"] = {k: full["gearbox"][k] for k in
+                      ("stages", "inertia", "stiffness", "damping_ratio", "housing")}
+    sc, tc = full["bench"]["speed_controller"], full["bench"]["torque_controller"]
+    cfg["bench"] = {**full["bench"], "speed_controller": {"kp": sc["kp"], "ki": sc["ki"]},
+                    "torque_controller": {"kp": tc["kp"], "ki": tc["ki"]}}
+    cfg["campaign"] = {k: full["campaign"][k] for k in
+                       ("nominal", "step", "full_range", "settle", "hold", "sample_rate")}
+    cfg["excitation"] = {"load_reference": 16250.0}
+    cfg["sweep"] = {k: full["sweep"][k] for k in
+                    ("rpm_start", "rpm_end", "duration", "torque", "sample_rate")}
+    cfg["tsa"] = {"variants": full["tsa"]["variants"]}
+    cfg["identify"] = {"pairings": full["identify"]["pairings"]}
+    return cfg
+
+
+def _defaults(sub, path=()):
+    """Every (key path, default) declared in a schema node (following $ref)."""
+    root = schema()
+    if "$ref" in sub:
+        sub = {**root["$defs"][sub["$ref"].split("/")[-1]], **sub}
+    for name, prop in sub.get("properties", {}).items():
+        if "default" in prop:
+            yield (*path, name), prop["default"]
+        yield from _defaults(prop, (*path, name))
+
+
+def test_minimal_config_gets_every_schema_default():
+    cfg = validate(_minimal())
+    checked = 0
+    for path, default in _defaults(schema()):
+        node = cfg
+        for key in path[:-1]:
+            node = node[key]
+        if path[0] == "sweep" and path[1] == "noise":
+            continue   # derived from the top-level noise (next test)
+        if isinstance(default, dict):
+            assert isinstance(node[path[-1]], dict)
+        else:
+            assert node[path[-1]] == default, path
+        checked += 1
+    assert checked >= 40
+    assert cfg["identify"]["order"] == "auto"
+    assert cfg["bench"]["speed_controller"]["setpoint_weight"] == 1.0
+
+
+def test_derived_defaults():
+    raw = _minimal()
+    raw["tsa"]["averaging"] = "sliding"
+    raw["tsa"]["variants"] = [{"name": "a", "cycles": ["hss"]},
+                              {"name": "b", "cycles": ["mesh2"], "averaging": "quadratic"},
+                              {"name": "c", "cycles": ["hss", "mesh2"]}]
+    raw["sweep"]["noise"] = {"motor_ripple": {"driven": 150.0}}
+    cfg = validate(raw)
+    assert [v["averaging"] for v in cfg["tsa"]["variants"]] == ["sliding", "quadratic",
+                                                                 "sliding"]
+    assert cfg["sweep"]["noise"] == {"motor_ripple": {"driver": 150.0, "driven": 150.0},
+                                     "sensor": raw["noise"]["sensor"]}
+    assert cfg["identify"]["tests"] == cfg["campaign"]["tests"]
+    assert cfg["identify"]["best"] == {"test": "speed_up", "profile": "square",
+                                       "pairing": raw["identify"]["pairings"][0]["name"],
+                                       "version": "clean"}
+    assert cfg["identify"]["max_order"] == order_bound(cfg)
+
+
+def test_merge_on_a_loaded_config_derives_again():
+    cfg = load(CONFIG)
+    quad = validate(merge(cfg, {"tsa": {"averaging": "sliding"}}))
+    # variants without their own averaging follow the new tsa.averaging; carrier2 keeps its
+    # explicit quadratic
+    assert [v["averaging"] for v in quad["tsa"]["variants"]] == [
+        "sliding", "quadratic", "sliding", "sliding"]
+    louder = validate(merge(cfg, {"noise": {"sensor": {"speed": 0.01}}}))
+    assert louder["sweep"]["noise"]["sensor"]["speed"] == 0.01
+    assert louder["sweep"]["noise"]["motor_ripple"]["driven"] == 150.0   # explicit: kept
+    assert validate(cfg) == cfg
+
+
+def test_order_bound_counts_the_bench_states_in_band():
+    cfg = load(CONFIG)
+    A = model.bench_ss(cfg).A
+    # 12 rotating bodies (24 states) + the two PI integrators; every mode of the paper's
+    # bench is below 350 Hz (its highest is the mesh-stage pair near 339 Hz)
+    assert A.shape[0] == 26
+    assert order_bound(cfg) == 26 == cfg["identify"]["max_order"]
+    low = validate(merge(cfg, {"identify": {"frf": {"f_max": 100.0}}}))
+    f_hz, _ = lti.modes(A)
+    n_osc = int(np.sum(f_hz <= 100.0))
+    n_real = int(np.sum(np.abs(np.linalg.eigvals(A).imag) < 1e-9))
+    assert low["identify"]["max_order"] == 2 * n_osc + n_real < 26
+
+
+def test_max_order_follows_the_gearbox():
+    example = load(CONFIG, EXAMPLES[0])
+    assert example["identify"]["max_order"] != load(CONFIG)["identify"]["max_order"]
+
+
+def test_zero_integral_gain_is_not_unstable():
+    load(CONFIG, {"bench": {"speed_controller": {"ki": 0.0}}})
+    load(CONFIG, {"bench": {"torque_controller": {"ki": 0.0}}})
+
+
+def test_unstable_gain_is_named():
+    with pytest.raises(UnstableGain) as exc:
+        load(CONFIG, CI_CONFIG, {"bench": {"torque_controller": {"ki": 50.0}}})
+    assert exc.value.field.startswith("bench.torque_controller.ki")
+
+
+def test_file_errors(tmp_path):
+    with pytest.raises(FileNotFoundError):
+        load(tmp_path / "nope.yaml")
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("gearbox: [1, 2\n")
+    with pytest.raises(ConfigError, match="not valid YAML"):
+        load(bad)
+    bad.write_text("- 1\n")
+    with pytest.raises(ConfigError, match="mapping"):
+        load(bad)
+
+
+def test_missing_section_is_named():
+    raw = _raw()
+    del raw["bench"]
+    with pytest.raises(ConfigError) as exc:
+        validate(raw)
+    assert exc.value.field == "bench"
+
+
+def _objects(node, path="(top)"):
+    """Every object node of the schema (those with properties), with where it is."""
+    if isinstance(node, dict):
+        if "properties" in node:
+            yield path, node
+        for key, sub in node.items():
+            yield from _objects(sub, f"{path}/{key}")
+    elif isinstance(node, list):
+        for i, sub in enumerate(node):
+            yield from _objects(sub, f"{path}/{i}")
+
+
+def test_schema_is_closed_everywhere():
+    found = list(_objects(schema()))
+    assert len(found) >= 30
+    # `if` clauses only select a branch; every object a config value must match is closed
+    open_ = [p for p, node in found if node.get("additionalProperties") is not False
+             and "/if" not in p]
+    assert open_ == []

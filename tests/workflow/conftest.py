@@ -1,0 +1,80 @@
+"""Fixtures of the workflow tests: scratch copies of the repository and one complete CI run.
+
+Every workflow test runs Snakemake in a copy (what a fresh clone holds), with that copy's
+``src`` first on ``PYTHONPATH``, under the usual umask 022. The complete CI run is built
+once per test session and shared; tests that change files change their own copy.
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from tests.conftest import ROOT
+
+SNAKEMAKE = [sys.executable, "-m", "snakemake", "--cores", "2", "--configfile",
+             "config/ci.yaml"]
+#: Not part of a fresh clone: results, Snakemake's state, caches.
+_SKIP = {"results", ".snakemake", ".git", "__pycache__", ".pytest_cache", ".ruff_cache"}
+
+
+def copy_repo(dest: Path) -> Path:
+    """Copy the tracked and untracked-but-not-ignored files: a fresh clone's content.
+
+    Outside a git checkout (a source archive), every file but results and caches.
+    """
+    proc = subprocess.run(["git", "ls-files", "-co", "--exclude-standard", "-z"], cwd=ROOT,
+                          capture_output=True)
+    if proc.returncode == 0:
+        files = [f for f in proc.stdout.decode().split("\0") if f]
+    else:
+        files = [str(p.relative_to(ROOT)) for p in ROOT.rglob("*")
+                 if p.is_file() and not _SKIP & set(p.relative_to(ROOT).parts)]
+    for f in files:
+        src = ROOT / f
+        if src.is_file():
+            (dest / f).parent.mkdir(parents=True, exist_ok=True)
+            shutil.copy2(src, dest / f, follow_symlinks=False)
+    return dest
+
+
+def snakemake_env(work: Path) -> dict[str, str]:
+    """Environment of a Snakemake run in ``work``: its own ``src`` first, one thread."""
+    env = dict(os.environ, OMP_NUM_THREADS="1", MPLBACKEND="Agg")
+    env["PYTHONPATH"] = os.pathsep.join(filter(None, [str(work / "src"),
+                                                      env.get("PYTHONPATH")]))
+    return env
+
+
+def _umask_022() -> None:
+    os.umask(0o022)
+
+
+def snakemake(work: Path, *args: str, check: bool = True) -> subprocess.CompletedProcess:
+    """Run Snakemake (CI config, 2 cores) in ``work``; fail with its log tail if it fails."""
+    proc = subprocess.run([*SNAKEMAKE, *args], cwd=work, capture_output=True, text=True,
+                          env=snakemake_env(work), preexec_fn=_umask_022)
+    if check and proc.returncode != 0:
+        raise AssertionError(f"snakemake {' '.join(args)} failed:\n{proc.stderr[-6000:]}")
+    return proc
+
+
+def start_snakemake(work: Path, log: Path) -> subprocess.Popen:
+    """Start the CI workflow in ``work`` in its own process group (so it can be killed)."""
+    with open(log, "w") as fh:
+        return subprocess.Popen([*SNAKEMAKE], cwd=work, stdout=fh, stderr=subprocess.STDOUT,
+                                env=snakemake_env(work), start_new_session=True,
+                                preexec_fn=_umask_022)
+
+
+@pytest.fixture(scope="session")
+def ci_run(tmp_path_factory) -> Path:
+    """A copy of the repository with a complete CI run in ``results/``."""
+    work = copy_repo(tmp_path_factory.mktemp("ci_run"))
+    snakemake(work)
+    return work

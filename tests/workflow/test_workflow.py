@@ -1,0 +1,142 @@
+"""The Snakemake workflow end to end on the CI config, in a scratch copy of the repository.
+
+One complete CI run (``ci_run``, tests/workflow/conftest.py) is shared by the tests below:
+a dry run with nothing left to do, the exact rerun after a TSA parameter changes, output
+permissions, CF compliance and provenance of every NetCDF output, and the HTML report
+rendered in a real headless browser. Reproducibility across runs is checked by
+test_interrupt.py (a killed and resumed run gives the results of this one).
+"""
+
+from __future__ import annotations
+
+import re
+import shutil
+import stat
+import subprocess
+from collections import Counter
+from pathlib import Path
+
+import matplotlib.image as mpimg
+import numpy as np
+import pytest
+from playwright.sync_api import sync_playwright
+
+from gbpipe import io
+from tests.workflow.cf_check import cf_findings
+from tests.workflow.conftest import snakemake
+
+
+def _outputs(run: Path) -> list[Path]:
+    return sorted((run / "results").rglob("*.nc"))
+
+
+def test_dry_run_after_complete_run_has_nothing_to_do(ci_run):
+    out = snakemake(ci_run, "--dry-run")
+    assert "Nothing to be done" in out.stdout + out.stderr
+
+
+def planned_jobs(output: str) -> Counter:
+    """Rule -> job count of the 'Job stats' table of a dry run (empty: nothing to do)."""
+    jobs, table = Counter(), False
+    for line in output.splitlines():
+        if line.startswith("job") and "count" in line:
+            table = True
+            continue
+        if table:
+            m = re.match(r"^([A-Za-z_]\w*)\s+(\d+)\s*$", line.strip())
+            if m and m.group(1) != "total":
+                jobs[m.group(1)] = int(m.group(2))
+            elif m is None and jobs:
+                break
+    return jobs
+
+
+def test_changed_tsa_parameter_reruns_exactly_the_jobs_that_use_it(ci_run):
+    # tsa.n_cycles is a parameter of the sweep's TSA variants (and their figures) and of
+    # the TSA of the test records, hence of identification and its table and figures.
+    # Nothing upstream (kinematics, model, simulate, sweep, spectra) nor figures_model /
+    # figures_tests may rerun. 4 TSA variants and 2 identified records (square speed
+    # ramps) x 3 methods in the CI config.
+    overlay = ci_run / "config" / "tsa_change.yaml"
+    overlay.write_text("tsa:\n  n_cycles: 8\n")
+    try:
+        out = snakemake(ci_run, "config/tsa_change.yaml", "--dry-run")
+    finally:
+        overlay.unlink()
+    assert planned_jobs(out.stdout + out.stderr) == Counter({
+        "tsa": 4, "figures_harmonics": 1, "tsa_tests": 2, "identify": 6,
+        "identification_table": 1, "figures_identify": 1, "all": 1})
+
+
+def test_every_output_file_is_0644(ci_run):
+    files = [p for p in (ci_run / "results").rglob("*") if p.is_file()]
+    assert len(files) >= 60
+    modes = {str(p.relative_to(ci_run)): oct(stat.S_IMODE(p.stat().st_mode)) for p in files}
+    assert {k: v for k, v in modes.items() if v != "0o644"} == {}
+    assert not list((ci_run / "results").rglob("*.tmp")), "temporaries left behind"
+
+
+def test_every_netcdf_output_is_cf_clean(ci_run):
+    findings = {str(p.relative_to(ci_run)): cf_findings(p) for p in _outputs(ci_run)}
+    assert findings and not any(findings.values()), {k: v for k, v in findings.items() if v}
+
+
+def test_every_output_has_provenance(ci_run):
+    for path in _outputs(ci_run):
+        ds = io.read(path)
+        for key in ("gbpipe_version", "config_sha256", "created", "stage", "Conventions"):
+            assert key in ds.attrs, (path, key)
+        for name, var in {**ds.coords, **ds.data_vars}.items():
+            assert "units" in var.attrs and "long_name" in var.attrs, (path, name)
+
+
+@pytest.fixture(scope="session")
+def chromium() -> str:
+    """Debian's chromium; installed here when missing (as the test command promises)."""
+    path = shutil.which("chromium")
+    if path is None:
+        env = {"DEBIAN_FRONTEND": "noninteractive", "PATH": "/usr/sbin:/usr/bin:/sbin:/bin"}
+        for cmd in (["apt-get", "update", "-qq"], ["apt-get", "install", "-y", "-qq", "chromium"]):
+            proc = subprocess.run(cmd, capture_output=True, text=True, env=env)
+            assert proc.returncode == 0, f"{' '.join(cmd)} failed: {proc.stderr[-2000:]}"
+        path = shutil.which("chromium")
+    assert path, "chromium is not installed and could not be installed with apt-get"
+    return path
+
+
+def test_report_renders_every_figure_in_a_browser(ci_run, chromium, tmp_path):
+    report = ci_run / "results" / "report.html"
+    snakemake(ci_run, "--report", str(report))
+    expected = sorted(p.stem + ".png" for p in (ci_run / "results" / "report").glob("*.rst"))
+    assert len(expected) >= 15
+    args = ["--no-sandbox", "--disable-gpu", "--disable-background-networking",
+            "--disable-component-update", "--disable-sync", "--no-first-run"]
+    seen = []
+    with sync_playwright() as p:
+        browser = p.chromium.launch(executable_path=chromium, args=args)
+        page = browser.new_page(viewport={"width": 1400, "height": 900})
+        page.goto(report.as_uri())
+        categories = [c.strip() for c in page.locator("body").inner_text().split("\n")]
+        for cat in ("Model", "Test campaigns", "Harmonic removal", "Identification"):
+            if cat not in categories:
+                continue
+            page.goto(report.as_uri())
+            page.get_by_text(cat, exact=True).first.click()
+            rows = page.locator("tr", has_text=".png")
+            for i in range(rows.count()):
+                row = rows.nth(i)
+                name = row.inner_text().split("/")[-1].strip()
+                row.locator("a[iconname=eye]").click()
+                page.wait_for_timeout(300)
+                sizes = page.eval_on_selector_all(
+                    "img[src^='data:image/png']", "els => els.map(e => e.naturalWidth)")
+                png = mpimg.imread(ci_run / "results" / "figures" / name)
+                assert png.shape[1] in sizes, f"{name} did not render (widths {sizes})"
+                shot = tmp_path / f"shot_{name}"
+                page.screenshot(path=str(shot))
+                pixels = mpimg.imread(shot)[:, 400:, :3]
+                # a rendered plot has ink: many distinct grey levels, not a blank panel
+                assert pixels.std() > 0.05 and len(np.unique(pixels.round(2))) > 50, name
+                seen.append(name)
+        browser.close()
+    assert sorted(seen) == expected
