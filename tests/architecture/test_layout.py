@@ -171,3 +171,14 @@ def test_ruff_is_clean():
     res = subprocess.run([sys.executable, "-m", "ruff", "check", "src", "tests", "workflow",
                           "benchmarks"], cwd=ROOT, capture_output=True, text=True)
     assert res.returncode == 0, res.stdout[-3000:]
+
+
+def test_architecture_doc_names_only_paths_that_exist():
+    # the tour in docs/architecture.md is followed on a fresh clone: every file and folder
+    # it names must be there (placeholders like `method_<name>.py` and the example new
+    # module `vkf.py` excepted)
+    text = (ROOT / "docs" / "architecture.md").read_text()
+    named = set(re.findall(r"`((?:src|tests|workflow|config|docs|benchmarks|profiles)/"
+                           r"[\w./-]+)`", text))
+    missing = sorted(p for p in named if not p.endswith("/vkf.py") and not (ROOT / p).exists())
+    assert len(named) >= 15 and missing == []

@@ -71,14 +71,31 @@ def test_minimal_config_gets_every_schema_default():
             node = node[key]
         if path[0] == "sweep" and path[1] == "noise":
             continue   # derived from the top-level noise (next test)
+        if path == ("identify", "order"):
+            continue   # "model" is resolved to a number of states (next tests)
         if isinstance(default, dict):
             assert isinstance(node[path[-1]], dict)
         else:
             assert node[path[-1]] == default, path
         checked += 1
     assert checked >= 40
-    assert cfg["identify"]["order"] == "auto"
+    assert isinstance(cfg["identify"]["order"], int)
     assert cfg["bench"]["speed_controller"]["setpoint_weight"] == 1.0
+
+
+def test_order_model_follows_the_gearbox():
+    # "model" = states of the open-loop bench in the identified band: each degree of
+    # freedom is two states; a mode above identify.frf.f_max drops out of the band
+    for overlays in ((), (ROOT / "config" / "examples" / "gearbox_1planetary_2parallel.yaml",)):
+        cfg = load(ROOT / "config" / "config.yaml", *overlays)
+        A = model.bench_ss(cfg, closed=False).A
+        f_modes, _ = lti.modes(A)
+        above = int(np.sum(f_modes > cfg["identify"]["frf"]["f_max"]))
+        assert cfg["identify"]["order"] == A.shape[0] - 2 * above
+    paper = load(ROOT / "config" / "config.yaml")
+    assert paper["identify"]["order"] == 24   # 12 DOF, all below 350 Hz: the paper's order
+    auto = load(ROOT / "config" / "config.yaml", {"identify": {"order": "auto"}})
+    assert auto["identify"]["order"] == "auto" and auto["identify"]["max_order"] == 26
 
 
 def test_derived_defaults():

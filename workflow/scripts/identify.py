@@ -8,6 +8,6 @@ log = io.setup_log(snakemake.log[0])
 w, cfg, i = snakemake.wildcards, snakemake.params.cfg, snakemake.input
 ds = identify_record(cfg, io.read(i.record), io.read(i.validation), io.read(i.truth), w.method,
                      io.read(i.tsa_record), io.read(i.tsa_validation))
-io.write(ds, snakemake.output.nc, stage="identify", config=cfg,
+io.write(ds, snakemake.output.nc, sources=snakemake.input, stage="identify", config=cfg,
          wildcards={"test": w.test, "profile": w.profile, "method": w.method},
          title=f"{w.method} models of {w.test} ({w.profile}) vs the true bench model")

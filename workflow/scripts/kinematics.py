@@ -10,7 +10,8 @@ rows, notes = tables.table2(ds, stages)
 for note in notes:
     log.warning(note)
 ds.attrs["notes"] = " | ".join(notes) if notes else "none"
-io.write(ds, snakemake.output.nc, stage="kinematics", config=snakemake.params.gearbox,
+io.write(ds, snakemake.output.nc, sources=snakemake.input,
+         stage="kinematics", config=snakemake.params.gearbox,
          title=f"Shaft and gear-mesh frequencies, {snakemake.params.gearbox['name']}")
 io.write_csv(rows, snakemake.output.table)
 log.info("gearbox ratio %.4f; table with %d rows", float(ds.total_ratio), len(rows))

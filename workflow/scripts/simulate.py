@@ -9,7 +9,8 @@ snakemake = globals()["snakemake"]
 log = io.setup_log(snakemake.log[0])
 w = snakemake.wildcards
 ds = simulate.test(snakemake.params.cfg, w.test, w.profile)
-io.write(ds, snakemake.output.nc, stage="simulate", config=snakemake.params.cfg,
+io.write(ds, snakemake.output.nc, sources=snakemake.input,
+         stage="simulate", config=snakemake.params.cfg,
          wildcards={"test": w.test, "profile": w.profile},
          title=f"Closed-loop bench test {w.test}, {w.profile} steps")
 log.info("%s/%s: %d samples, %d tachometer pulses", w.test, w.profile, ds.time.size,

@@ -9,7 +9,10 @@ configuration and are filled in after the schema (only where the key is absent):
 * ``identify.tests`` / ``identify.profiles`` ← ``campaign.tests`` / ``campaign.profiles``;
 * ``identify.best`` ← the first configured test, profile, pairing and version;
 * ``identify.max_order`` ← :func:`gbpipe.config.bounds.order_bound` (the bench's states in
-  the identified band).
+  the identified band);
+* ``identify.order: model`` (the default) ← :func:`gbpipe.config.bounds.plant_order`, the
+  states of the configured open-loop bench in the identified band (24 for the paper's
+  bench), so the order follows the gearbox.
 
 The result is a :class:`Config`: a plain dict that remembers which key paths were
 derived, so that :func:`gbpipe.config.merge` of a loaded configuration with an overlay
@@ -55,7 +58,8 @@ def _fill(node: dict, key: str, value: Any, path: Path, derived: set[Path]) -> N
         derived.add((*path, key))
 
 
-def derive(cfg: dict[str, Any], order_bound: Callable[[Mapping[str, Any]], int]) -> Config:
+def derive(cfg: dict[str, Any], order_bound: Callable[[Mapping[str, Any]], int],
+           plant_order: Callable[[Mapping[str, Any]], int]) -> Config:
     """Fill the derived defaults of a schema-complete ``cfg`` (modified in place).
 
     Parameters
@@ -65,6 +69,8 @@ def derive(cfg: dict[str, Any], order_bound: Callable[[Mapping[str, Any]], int])
         checks.
     order_bound : callable
         ``cfg -> int``, the default of ``identify.max_order``.
+    plant_order : callable
+        ``cfg -> int``, the order that ``identify.order: model`` stands for.
 
     Returns
     -------
@@ -89,6 +95,9 @@ def derive(cfg: dict[str, Any], order_bound: Callable[[Mapping[str, Any]], int])
         _fill(best, key, value, ("identify", "best"), derived)
     if "max_order" not in idc:
         _fill(idc, "max_order", order_bound(cfg), ("identify",), derived)
+    if idc["order"] == "model":
+        idc["order"] = plant_order(cfg)
+        derived.add(("identify", "order"))
     out = Config(cfg)
     out.derived = frozenset(derived)
     return out

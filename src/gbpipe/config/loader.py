@@ -76,7 +76,7 @@ def validate(cfg: Mapping[str, Any], *, check_stability: bool = True) -> Config:
     out = apply_schema(cfg.explicit() if isinstance(cfg, Config) else cfg)
     gearbox.check_gearbox(out)
     gearbox.check_cycle_names(out)
-    out = derive(out, bounds.order_bound)
+    out = derive(out, bounds.order_bound, bounds.plant_order)
     records.check_campaign(out)
     records.check_sweep(out)
     processing.check_tsa(out)

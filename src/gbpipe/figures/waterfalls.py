@@ -35,41 +35,46 @@ def _mesh(ax, x, y, z, vmax, dyn, label):
     return m
 
 
+def _waterfall(x: xr.DataArray, y: xr.DataArray, power: xr.DataArray, stem, title: str,
+               xlabel: str, vmax: float | None, dynamic_range: float, decorate) -> float:
+    """Power in dB over (x, rpm) with a colour bar; ``decorate(ax)`` adds the marks.
+    Returns the top of the colour scale [dB] (to share it between figures)."""
+    fig, ax = new(figsize=(7.0, 4.6))
+    z = _db(power)
+    vmax = float(np.nanmax(z)) if vmax is None else vmax
+    m = _mesh(ax, x, y, z, vmax, dynamic_range, "")
+    decorate(ax)
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel("HSS speed [rpm]")
+    ax.set_title(title)
+    fig.colorbar(m, ax=ax, label=f"power [dB re 1 {power.attrs['units']}]")
+    save(fig, stem)
+    return vmax
+
+
 def fig_power_waterfall(ds: xr.Dataset, stem, title: str, *, vmax: float | None = None,
                         dynamic_range: float = 70.0, modes=()) -> float:
     """Power spectrum vs rpm (frequency on x, rpm on y), in dB re 1 (N·m)²."""
-    fig, ax = new(figsize=(7.0, 4.6))
-    z = _db(ds.power)
-    vmax = float(np.nanmax(z)) if vmax is None else vmax
-    m = _mesh(ax, ds.frequency, ds.rpm, z, vmax, dynamic_range, "")
-    for f in modes:
-        ax.axvline(f, color="w", lw=0.6, ls="--")
-    ax.set_xlabel("frequency [Hz]")
-    ax.set_ylabel("HSS speed [rpm]")
-    ax.set_title(title)
-    fig.colorbar(m, ax=ax, label=f"power [dB re 1 {ds.power.attrs['units']}]")
-    save(fig, stem)
-    return vmax
+    def decorate(ax):
+        for f in modes:
+            ax.axvline(f, color="w", lw=0.6, ls="--")
+
+    return _waterfall(ds.frequency, ds.rpm, ds.power, stem, title, "frequency [Hz]", vmax,
+                      dynamic_range, decorate)
 
 
 def fig_order_waterfall(ds: xr.Dataset, stem, title: str, *, vmax: float | None = None,
                         dynamic_range: float = 70.0, marks: Mapping[str, float] | None = None
                         ) -> float:
     """Order spectrum vs rpm (order on x, rpm on y), in dB."""
-    fig, ax = new(figsize=(7.0, 4.6))
-    z = _db(ds.order_power)
-    vmax = float(np.nanmax(z)) if vmax is None else vmax
-    m = _mesh(ax, ds.order, ds.order_rpm, z, vmax, dynamic_range, "")
-    for label, o in (marks or {}).items():
-        ax.axvline(o, color="w", lw=0.5, ls=":")
-        ax.annotate(label, (o, 1.0), xycoords=("data", "axes fraction"), rotation=90,
-                    va="top", ha="right", fontsize=7, color="w")
-    ax.set_xlabel("order of the HSS [-]")
-    ax.set_ylabel("HSS speed [rpm]")
-    ax.set_title(title)
-    fig.colorbar(m, ax=ax, label=f"power [dB re 1 {ds.order_power.attrs['units']}]")
-    save(fig, stem)
-    return vmax
+    def decorate(ax):
+        for label, o in (marks or {}).items():
+            ax.axvline(o, color="w", lw=0.5, ls=":")
+            ax.annotate(label, (o, 1.0), xycoords=("data", "axes fraction"), rotation=90,
+                        va="top", ha="right", fontsize=7, color="w")
+
+    return _waterfall(ds.order, ds.order_rpm, ds.order_power, stem, title,
+                      "order of the HSS [-]", vmax, dynamic_range, decorate)
 
 
 def fig_mode_band(variants: Mapping[str, xr.Dataset], stem) -> None:

@@ -27,6 +27,7 @@ See docs/architecture.md, "Physics".
 
 from __future__ import annotations
 
+from collections import OrderedDict
 from typing import Any
 
 import numpy as np
@@ -40,6 +41,10 @@ _CHUNK_SAMPLES = 1 << 16
 # segments); longer runs are cut into segments of _SEGMENT blocks (see _block_starts).
 _MIN_LIFTED = 64
 _SEGMENT = 16
+# Lifted matrices of the most recent systems: a validation simulates one model over many
+# short segments, and the extended-precision powers cost more than a short segment itself.
+_LIFTED_CACHE: OrderedDict[tuple, tuple] = OrderedDict()
+_LIFTED_CACHE_SIZE = 8
 
 
 def block_length(n: int, m: int, p: int) -> int:
@@ -82,6 +87,23 @@ def _lifted(a: np.ndarray, b: np.ndarray, c: np.ndarray, d: np.ndarray, L: int
     return obs, toep, reach, powers[L]
 
 
+def _lifted_cached(a: np.ndarray, b: np.ndarray, c: np.ndarray, d: np.ndarray, L: int
+                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`_lifted`, remembered for the last few systems (keyed by their bytes)."""
+    key = (L, *((v.dtype.str, v.shape, v.tobytes()) for v in (a, b, c, d)))
+    hit = _LIFTED_CACHE.get(key)
+    if hit is None:
+        hit = _lifted(a, b, c, d, L)
+        for arr in hit:
+            arr.setflags(write=False)  # shared between calls: never written
+        _LIFTED_CACHE[key] = hit
+        if len(_LIFTED_CACHE) > _LIFTED_CACHE_SIZE:
+            _LIFTED_CACHE.popitem(last=False)
+    else:
+        _LIFTED_CACHE.move_to_end(key)
+    return hit
+
+
 def dlsim(a: np.ndarray, b: np.ndarray, c: np.ndarray, d: np.ndarray, u: np.ndarray,
           x0: np.ndarray | None = None, *, return_state: bool = False
           ) -> np.ndarray | tuple[np.ndarray, np.ndarray]:
@@ -122,7 +144,7 @@ def dlsim(a: np.ndarray, b: np.ndarray, c: np.ndarray, d: np.ndarray, u: np.ndar
     L = block_length(n, m, p)
     nfull = n_samp // L
     if nfull:
-        obs, toep, reach, a_l = _lifted(a, b, c, d, L)
+        obs, toep, reach, a_l = _lifted_cached(a, b, c, d, L)
         ub = u[:nfull * L].reshape(nfull, L * m)
         xs, x = _block_starts(a_l, ub @ reach.T, x)
         # One product gives a block's outputs from [x_b, U_b]: Y_b = [O T] [x_b; U_b].

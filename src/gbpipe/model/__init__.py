@@ -15,6 +15,8 @@ truth_model, true_modes, truth_dataset
     modes as an ``xarray.Dataset`` (``results/model/truth.nc``).
 gearbox_mechanism, bench_mechanism, Mechanism, Body, Spring
     The mechanisms behind the state spaces.
+model_datasets(cfg, truth_cfg)
+    The gearbox, bench and truth datasets of the model stage (``results/model/*.nc``).
 
 ``control.StateSpace`` forms: ``from gbpipe.model.control_models import gearbox, bench``.
 FRFs and modes of any state space: :func:`gbpipe.lti.frf`, :func:`gbpipe.lti.modes`.
@@ -27,10 +29,11 @@ from gbpipe.model.assembly import bench_ss, gearbox_ss
 from gbpipe.model.drivetrain import bench_mechanism, gearbox_mechanism
 from gbpipe.model.mechanics import Body, Mechanism, Spring
 from gbpipe.model.stability import check_stability
+from gbpipe.model.stage import model_datasets
 from gbpipe.model.truth import TORQUES, true_modes, truth_dataset, truth_model
 
 __all__ = [
     "gearbox_ss", "bench_ss", "check_stability", "truth_model", "true_modes",
     "truth_dataset", "TORQUES", "Mechanism", "Body", "Spring", "gearbox_mechanism",
-    "bench_mechanism",
+    "bench_mechanism", "model_datasets",
 ]
