@@ -21,19 +21,8 @@ __all__ = ["gearbox", "bench"]
 
 
 def gearbox(cfg: Mapping[str, Any]) -> control.StateSpace:
-    """State-space model of one gearbox, free at the LSS and HSS ends.
-
-    Parameters
-    ----------
-    cfg : mapping
-        Validated configuration (``gbpipe.config.load``).
-
-    Returns
-    -------
-    control.StateSpace
-        Named signals as in :func:`gbpipe.model.gearbox_ss`; Figure 3 is
-        ``torque_hss → speed_lss``.
-    """
+    """:func:`gbpipe.model.gearbox_ss` as a named ``control.StateSpace`` (same signals;
+    Figure 3 is ``torque_hss → speed_lss``)."""
     return to_control(gearbox_ss(cfg), name="gearbox")
 
 

@@ -28,37 +28,8 @@ def n4sid(
 ) -> SubspaceModel:
     """Identify a state-space model with N4SID (oblique projection, shift invariance).
 
-    Parameters
-    ----------
-    u : array_like, shape (N,) or (N, m)
-        Input record (any unit). Not modified.
-    y : array_like, shape (N,) or (N, l)
-        Output record, same length. Not modified.
-    order : int or "auto"
-        State dimension; ``"auto"`` picks it from the singular values. At most
-        ``(horizon - 1) * l``.
-    horizon : int
-        Future window ``f`` in samples, >= 2.
-    dt : float
-        Sample time in seconds.
-    past : int, optional
-        Past window in samples, ``>= horizon``; default ``horizon``.
-    feedthrough : bool
-        Estimate ``D`` (default ``False``: ``D = 0``).
-    max_order : int, optional
-        Upper bound of the ``"auto"`` order.
-
-    Returns
-    -------
-    SubspaceModel
-
-    Raises
-    ------
-    DataError
-        Bad data (NaN/inf, mismatched lengths, too short, an all-zero channel).
-    ConfigError
-        ``past < horizon`` or an order larger than the horizon allows.
-    ExcitationError
-        The input is not persistently exciting for the order (:mod:`.excitation`).
+    Same arguments, result and errors as :func:`gbpipe.sysid.moesp` (``past`` is the past
+    window in samples, ``>= horizon``); the two methods differ only in the weighting of the
+    SVD (module docstrings).
     """
     return identify_open_loop(u, y, order, horizon, dt, past, feedthrough, max_order, "n4sid")

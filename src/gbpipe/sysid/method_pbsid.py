@@ -17,14 +17,7 @@ from __future__ import annotations
 import numpy as np
 
 from gbpipe.errors import ConfigError
-from gbpipe.sysid.checks import (
-    as_2d,
-    check_dt,
-    check_order,
-    check_past_future,
-    check_window,
-    prepare,
-)
+from gbpipe.sysid import checks
 from gbpipe.sysid.excitation import excitation_limit
 from gbpipe.sysid.hankel import hankel_gram, lstsq_r, window_r_factor
 from gbpipe.sysid.kalman import stable_predictor_gain
@@ -99,20 +92,20 @@ def pbsid(
         The input is not persistently exciting for the order (:mod:`.excitation`): its
         block-Hankel matrix over the ``past + 1`` window lacks the rank the order needs.
     """
-    p = check_window(past, "past")
-    f = p if future is None else check_window(future, "future")
+    p = checks.check_window(past, "past")
+    f = p if future is None else checks.check_window(future, "future")
     # The predictor rows of Gamma_f K_p need p >= f VARX coefficients.
-    check_past_future(p, f, "future")
-    dt = check_dt(dt)
+    checks.check_past_future(p, f, "future")
+    dt = checks.check_dt(dt)
     if not np.isfinite(regularization) or regularization < 0:
         raise ConfigError("regularization", f"must be >= 0, got {regularization!r}")
     # Validate shapes first so the order bound below knows the number of outputs.
-    m0 = as_2d(u, "u").shape[1]
-    l0 = as_2d(y, "y").shape[1]
+    m0 = checks.as_2d(u, "u").shape[1]
+    l0 = checks.as_2d(y, "y").shape[1]
     c0 = m0 + l0
     width = (p + 1) * c0
-    n_fixed = check_order(order, f * l0, f"future={f} block rows x {l0} outputs")
-    data = prepare(
+    n_fixed = checks.check_order(order, f * l0, f"future={f} block rows x {l0} outputs")
+    data = checks.prepare(
         u, y, min_samples=p + width + 1,
         window_desc=f"past={p} with {c0} channels ({width} regressors)",
     )
