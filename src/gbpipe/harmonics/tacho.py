@@ -299,6 +299,17 @@ def angle_interpolant(p: np.ndarray, pulses_per_rev: int, method: str) -> interp
     return interpolate.PPoly.from_spline(interpolate.make_interp_spline(p, theta, k=1))
 
 
+def _angle_or_speed(t: np.ndarray, pulse_times: np.ndarray, pulses_per_rev: int,
+                    method: AngleMethod, derivative: int) -> np.ndarray:
+    # one evaluation of the angle interpolant (or its derivative), NaN outside the pulses
+    p = as_pulses(pulse_times)
+    ppr = as_count(pulses_per_rev, "pulses_per_rev")
+    t = np.asarray(t, dtype=float)
+    out = angle_interpolant(p, ppr, method).derivative(derivative)(t)
+    out[(t < p[0]) | (t > p[-1])] = np.nan
+    return out
+
+
 def shaft_angle(
     t: np.ndarray,
     pulse_times: np.ndarray,
@@ -324,12 +335,7 @@ def shaft_angle(
     numpy.ndarray
         Angle [rad], 0 at the first pulse; NaN outside the pulse span.
     """
-    p = as_pulses(pulse_times)
-    ppr = as_count(pulses_per_rev, "pulses_per_rev")
-    t = np.asarray(t, dtype=float)
-    out = angle_interpolant(p, ppr, method)(t)
-    out[(t < p[0]) | (t > p[-1])] = np.nan
-    return out
+    return _angle_or_speed(t, pulse_times, pulses_per_rev, method, derivative=0)
 
 
 def shaft_speed(
@@ -351,10 +357,5 @@ def shaft_speed(
     numpy.ndarray
         Speed [rad/s]; NaN outside the pulse span. Multiply by ``60 / (2 pi)`` for rpm.
     """
-    p = as_pulses(pulse_times)
-    ppr = as_count(pulses_per_rev, "pulses_per_rev")
-    t = np.asarray(t, dtype=float)
-    out = angle_interpolant(p, ppr, method).derivative()(t)
-    out[(t < p[0]) | (t > p[-1])] = np.nan
-    return out
+    return _angle_or_speed(t, pulse_times, pulses_per_rev, method, derivative=1)
 
