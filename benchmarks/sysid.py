@@ -4,8 +4,10 @@ Open loop: 4th-order SISO plant with two lightly damped resonances (0.1 fs, zeta
 0.3 fs, zeta 0.01; zeros at +-0.5), white unit input, white output noise at 20 dB SNR, N = 1e4,
 1e5, 1e6. Every method runs in a fresh subprocess, so its peak memory is measured alone:
 ``peak MB`` is the growth of the resident set (VmHWM after the call minus VmRSS before, with the
-high-water mark reset just before the call). ``FRF err`` is the maximum over 500 frequencies
-in (0, fs/2) of ``|G_est - G| / |G|``.
+high-water mark reset just before the call). ``time s`` is wall time, ``CPU s`` the process's
+CPU time (less sensitive to other jobs on a shared machine). ``FRF err`` is the maximum over
+500 frequencies in (0, fs/2) of ``|G_est - G| / |G|``. A last table gives the speed-up of each
+gbpipe method over each SIPPY method at the same N (wall and CPU time).
 
 Closed loop: the same plant under a PI controller (kp 0.3, ki 0.05) with a white reference and
 coloured noise (innovation model sharing the plant poles, predictor poles at radius 0.7) at
@@ -145,13 +147,14 @@ def worker(method: str, path: str) -> None:
             fh.write("5")  # reset the peak-RSS counter (Linux >= 4.0)
     except OSError:
         pass
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.process_time()
     A, B, C, D = fn(u, y)
-    elapsed = time.perf_counter() - t0
+    elapsed, cpu = time.perf_counter() - t0, time.process_time() - c0
     peak = _rss("VmHWM") - base
     g = frf(*plant(), F_GRID)
     err = float(np.max(np.abs(frf(A, B, C, D, F_GRID) - g) / np.abs(g)))
-    print(json.dumps({"time": elapsed, "peak_mb": peak, "total_mb": _rss("VmHWM"), "err": err}))
+    print(json.dumps({"time": elapsed, "cpu": cpu, "peak_mb": peak, "total_mb": _rss("VmHWM"),
+                      "err": err}))
 
 
 def run_worker(method: str, path: Path, timeout: float) -> dict:
@@ -187,6 +190,25 @@ def closed_loop_table(n: int) -> None:
         print(f"{name:<16}{el:>9.3f}{fit:>9.2f}{err:>10.4f}")
 
 
+def speedup_table(results: dict[tuple[str, int], dict]) -> None:
+    """Time of each SIPPY method over that of each gbpipe method, same N (wall and CPU)."""
+    peers = [p for p in ("SIPPY N4SID", "SIPPY MOESP", "SIPPY PARSIM-K")
+             if any(key[0] == p for key in results)]
+    if not peers:
+        return
+    print("\nSpeed-up: SIPPY time / gbpipe time, wall (CPU)")
+    print(f"{'method':<16}{'N':>9}" + "".join(f"{p:>22}" for p in peers))
+    for (method, n), res in sorted(results.items(), key=lambda kv: (kv[0][1], kv[0][0])):
+        if not method.startswith("gbpipe"):
+            continue
+        cells = []
+        for p in peers:
+            ref = results.get((p, n))
+            cells.append("-" if ref is None else
+                         f"{ref['time'] / res['time']:.0f}x ({ref['cpu'] / res['cpu']:.0f}x)")
+        print(f"{method:<16}{n:>9.0e}" + "".join(f"{c:>22}" for c in cells))
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--worker", nargs=2, metavar=("METHOD", "DATA"), help=argparse.SUPPRESS)
@@ -202,8 +224,9 @@ def main() -> None:
         return
     print(f"OMP_NUM_THREADS={os.environ.get('OMP_NUM_THREADS', 'unset')}, "
           f"{os.cpu_count()} CPUs; open loop, 20 dB white output noise")
-    print(f"{'method':<16}{'N':>9}{'time s':>10}{'peak MB':>10}{'FRF err':>10}")
+    print(f"{'method':<16}{'N':>9}{'time s':>10}{'CPU s':>10}{'peak MB':>10}{'FRF err':>10}")
     last: dict[str, tuple[int, float]] = {}
+    results: dict[tuple[str, int], dict] = {}
     with tempfile.TemporaryDirectory() as tmp:
         for n in (int(s) for s in args.sizes):
             u, y = make_open_loop(n)
@@ -225,9 +248,12 @@ def main() -> None:
                         row = res["error"]
                     else:
                         last[method] = (n, res["time"])
-                        row = f"{res['time']:>10.3f}{res['peak_mb']:>10.1f}{res['err']:>10.4f}"
+                        results[(method, n)] = res
+                        row = (f"{res['time']:>10.3f}{res['cpu']:>10.3f}{res['peak_mb']:>10.1f}"
+                               f"{res['err']:>10.4f}")
                 print(f"{method:<16}{n:>9.0e}{row if row[0] == ' ' else '  ' + row}",
                       flush=True)
+    speedup_table(results)
     if args.closed_loop:
         closed_loop_table(int(args.closed_loop))
 

@@ -1,4 +1,7 @@
-"""Shared fixtures: the repository paths and loaded configurations."""
+"""Shared fixtures: the repository paths, loaded configurations, and the two complete runs
+(CI config, bench-record example) that the workflow and cluster tests share.
+
+Imports sit in the fixtures: the thread settings below must precede numpy's import."""
 
 from __future__ import annotations
 
@@ -28,3 +31,32 @@ def cfg_example():
     from gbpipe.config import load
 
     return load(CONFIG, EXAMPLE)
+
+
+@pytest.fixture(scope="session")
+def ci_run(tmp_path_factory) -> Path:
+    """A copy of the repository with a complete CI run in ``results/`` (shared by the
+    workflow and cluster tests: built once per session)."""
+    from tests.workflow.runs import copy_repo, snakemake
+
+    work = copy_repo(tmp_path_factory.mktemp("ci_run"))
+    snakemake(work)
+    return work
+
+
+@pytest.fixture(scope="session")
+def measured_run(tmp_path_factory) -> tuple[Path, dict]:
+    """A copy of the repository whose ``bench/`` holds the example's files (written from a
+    simulated test record by ``tests/measured/bench_campaign.py``), with the example's
+    complete run in ``results/``; and the truth the files encode (the record)."""
+    from gbpipe.config import load
+    from gbpipe.simulate import test as simulate_test
+    from tests.measured.bench_campaign import write_campaign_files
+    from tests.workflow.runs import MEASURED_CONFIGS, copy_repo, snakemake
+
+    work = copy_repo(tmp_path_factory.mktemp("measured_run"))
+    cfg = load(CONFIG, *(ROOT / c for c in MEASURED_CONFIGS))
+    record = simulate_test(cfg, "speed_up", "square", measured_like=True)
+    truth = write_campaign_files(record, work / "bench")
+    snakemake(work, "--configfile", *MEASURED_CONFIGS)
+    return work, {"record": record, "signals": truth, "cfg": cfg}

@@ -263,37 +263,26 @@ def frequencies(
     table = _orders_table(st)
     mesh_ord = [table[m] for m in mesh_names(len(st))]
 
-    def freq(orders: list[Fraction], dim: str) -> xr.DataArray:
+    def family(dim: str, orders: list[Fraction], what: str) -> dict[str, Any]:
+        # frequency, float order and exact order of one family (shafts or meshes)
         o = np.array([float(x) for x in orders])
         data = np.multiply.outer(f_hss, o) if rpm.ndim else f_hss * o
-        dims = ("rpm", dim) if rpm.ndim else (dim,)
-        return xr.DataArray(data, dims=dims)
+        return {
+            f"{dim}_frequency": (("rpm", dim) if rpm.ndim else (dim,), data,
+                                 {"units": "Hz", "long_name": f"{what} frequency"}),
+            f"{dim}_order": (dim, o, {"units": "1",
+                                      "long_name": f"{what} order relative to HSS"}),
+            f"{dim}_order_numerator": (dim, [x.numerator for x in orders], {
+                "units": "1", "long_name": f"exact {dim} order, numerator"}),
+            f"{dim}_order_denominator": (dim, [x.denominator for x in orders], {
+                "units": "1", "long_name": f"exact {dim} order, denominator"}),
+        }
 
     n = len(st)
     ds = xr.Dataset(
         {
-            "shaft_frequency": freq(shaft_ord, "shaft").assign_attrs(
-                units="Hz", long_name="shaft rotation frequency"
-            ),
-            "shaft_order": ("shaft", [float(x) for x in shaft_ord],
-                            {"units": "1", "long_name": "shaft rotation order relative to HSS"}),
-            "shaft_order_numerator": ("shaft", [x.numerator for x in shaft_ord],
-                                      {"units": "1", "long_name": "exact shaft order, numerator"}),
-            "shaft_order_denominator": (
-                "shaft", [x.denominator for x in shaft_ord],
-                {"units": "1", "long_name": "exact shaft order, denominator"},
-            ),
-            "mesh_frequency": freq(mesh_ord, "mesh").assign_attrs(
-                units="Hz", long_name="gear mesh frequency"
-            ),
-            "mesh_order": ("mesh", [float(x) for x in mesh_ord],
-                           {"units": "1", "long_name": "gear mesh order relative to HSS"}),
-            "mesh_order_numerator": ("mesh", [x.numerator for x in mesh_ord],
-                                     {"units": "1", "long_name": "exact mesh order, numerator"}),
-            "mesh_order_denominator": (
-                "mesh", [x.denominator for x in mesh_ord],
-                {"units": "1", "long_name": "exact mesh order, denominator"},
-            ),
+            **family("shaft", shaft_ord, "shaft rotation"),
+            **family("mesh", mesh_ord, "gear mesh"),
             "stage_ratio": ("stage", [float(s.ratio) for s in st],
                             {"units": "1", "long_name": "stage speed ratio output/input"}),
             "mesh_teeth": ("mesh", [s.mesh_teeth for s in st],

@@ -20,7 +20,7 @@ from pathlib import Path
 import xarray as xr
 
 from gbpipe import io
-from tests.workflow.conftest import copy_repo, snakemake, start_snakemake
+from tests.workflow.runs import copy_repo, snakemake, start_snakemake
 
 #: Seconds to wait for the job to start (the whole CI run takes about two minutes).
 _START_TIMEOUT = 600.0

@@ -1,6 +1,6 @@
 """The Snakemake workflow end to end on the CI config, in a scratch copy of the repository.
 
-One complete CI run (``ci_run``, tests/workflow/conftest.py) is shared by the tests below:
+One complete CI run (``ci_run``, tests/conftest.py) is shared by the tests below:
 a dry run with nothing left to do, the exact rerun after a TSA parameter changes, output
 permissions, CF compliance and provenance of every NetCDF output, and the HTML report
 rendered in a real headless browser. Reproducibility across runs is checked by
@@ -23,7 +23,7 @@ from playwright.sync_api import sync_playwright
 
 from gbpipe import io
 from tests.workflow.cf_check import cf_findings
-from tests.workflow.conftest import snakemake
+from tests.workflow.runs import snakemake
 
 
 def _outputs(run: Path) -> list[Path]:

@@ -28,6 +28,8 @@ def figure_outputs(n, category, name=None):
 
 
 def all_targets():
+    if config["measured"]:
+        return measured_targets()
     targets = [
         f"{RESULTS}/kinematics/frequencies.nc",
         f"{RESULTS}/tables/table2.csv",

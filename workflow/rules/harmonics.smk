@@ -7,10 +7,11 @@ rule spectra:
     message:
         "Power and order spectra vs rpm of the raw sweep (Fig 11)"
     input:
-        sweep=f"{RESULTS}/sweep/sweep.nc",
+        record=f"{RESULTS}/sweep/sweep.nc",
         code=code("spectra.py"),
     params:
         spectra=config["spectra"],
+        what="raw sweep",
     output:
         nc=f"{RESULTS}/spectra/sweep_raw.nc",
     log:
@@ -45,7 +46,7 @@ rule tsa:
     benchmark:
         f"{RESULTS}/benchmarks/tsa/{{variant}}.tsv"
     resources:
-        mem_mb=3000,
+        mem_mb=lambda wildcards, attempt: 3000 * attempt,  # a retry asks for more
     script:
         "../scripts/tsa.py"
 

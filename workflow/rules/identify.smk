@@ -41,6 +41,7 @@ rule tsa_tests:
                        "stages": config["gearbox"]["stages"], "signals": _id_signals(),
                        "keep_below": config["identify"]["tsa_keep_below"]},
         cycles=lambda w: "+".join(config["tsa"]["tests"]),
+        what=lambda w: f"Measured-like {w.test} ({w.profile})",
     output:
         nc=f"{RESULTS}/tsa/tests/{{test}}_{{profile}}.nc",
     log:
@@ -48,7 +49,7 @@ rule tsa_tests:
     benchmark:
         f"{RESULTS}/benchmarks/tsa_tests/{{test}}_{{profile}}.tsv"
     resources:
-        mem_mb=2000,
+        mem_mb=lambda wildcards, attempt: 2000 * attempt,  # a retry asks for more
     script:
         "../scripts/tsa_tests.py"
 
@@ -78,7 +79,7 @@ rule identify:
     benchmark:
         f"{RESULTS}/benchmarks/identify/{{test}}_{{profile}}_{{method}}.tsv"
     resources:
-        mem_mb=2000,
+        mem_mb=lambda wildcards, attempt: 2000 * attempt,  # a retry asks for more
     script:
         "../scripts/identify.py"
 

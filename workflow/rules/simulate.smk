@@ -13,7 +13,7 @@ rule simulate:
     benchmark:
         f"{RESULTS}/benchmarks/simulate/{{test}}_{{profile}}.tsv"
     resources:
-        mem_mb=2000,
+        mem_mb=lambda wildcards, attempt: 2000 * attempt,  # a retry asks for more
     script:
         "../scripts/simulate.py"
 
@@ -33,7 +33,7 @@ rule sweep:
     benchmark:
         f"{RESULTS}/benchmarks/sweep.tsv"
     resources:
-        mem_mb=4000,
+        mem_mb=lambda wildcards, attempt: 4000 * attempt,  # a retry asks for more
     script:
         "../scripts/sweep.py"
 

@@ -1,4 +1,4 @@
-"""Rule `spectra`: waterfalls of the raw sweep."""
+"""Rules `spectra` and `spectra_measured`: waterfalls of the raw sweep or a bench record."""
 
 from gbpipe import io
 from gbpipe.harmonics import sweep_waterfalls
@@ -6,7 +6,7 @@ from gbpipe.harmonics import sweep_waterfalls
 snakemake = globals()["snakemake"]
 log = io.setup_log(snakemake.log[0])
 spec = snakemake.params.spectra
-ds = sweep_waterfalls(io.read(snakemake.input.sweep), spec)
+ds = sweep_waterfalls(io.read(snakemake.input.record), spec)
 io.write(ds, snakemake.output.nc, sources=snakemake.input, stage="spectra", config=spec,
-         title="Power and order spectra vs rpm of the raw sweep")
+         title=f"Power and order spectra vs rpm of the {snakemake.params.what}")
 log.info("%d rpm bins x %d frequencies", ds.rpm.size, ds.frequency.size)

@@ -12,6 +12,8 @@ schema()
     The JSON schema (``src/gbpipe/schemas/config.schema.yaml``).
 order_bound(cfg)
     States of the bench in the identified band: the default ``identify.max_order``.
+measured_specs(cfg), min_duration(cfg)
+    The parsed ``measured:`` bench records; the shortest record identification can use.
 ConfigError
     Raised for every bad value, naming its key path (``gearbox.stages[1].ring``).
 
@@ -24,8 +26,9 @@ from __future__ import annotations
 from gbpipe.config.bounds import order_bound
 from gbpipe.config.derive import Config
 from gbpipe.config.loader import load, merge, read_yaml, validate
+from gbpipe.config.measured import measured_specs, min_duration
 from gbpipe.config.schema_validation import SCHEMA_PATH, schema
 from gbpipe.errors import ConfigError
 
 __all__ = ["load", "validate", "merge", "schema", "order_bound", "read_yaml", "Config",
-           "ConfigError", "SCHEMA_PATH"]
+           "ConfigError", "SCHEMA_PATH", "measured_specs", "min_duration"]

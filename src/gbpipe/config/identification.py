@@ -13,6 +13,7 @@ from typing import Any
 
 from gbpipe.config.schema_validation import suggest
 from gbpipe.errors import ConfigError
+from gbpipe.model.truth import TORQUES
 from gbpipe.simulate.profiles import test_duration
 from gbpipe.simulate.signals import SIGNALS
 
@@ -74,10 +75,22 @@ def _check_pairings(cfg: Mapping[str, Any]) -> None:
         if p["name"] in names[:i]:
             raise ConfigError(f"identify.pairings[{i}].name",
                               f"'{p['name']}' is used twice; pairing names must be unique")
+        if cfg["measured"]:
+            continue  # names are checked against the measured records (config.measured)
+        for j, inp in enumerate(p["inputs"]):
+            if inp not in TORQUES:
+                raise ConfigError(f"identify.pairings[{i}].inputs[{j}]",
+                                  f"'{inp}' is not a motor torque of the simulated bench; "
+                                  f"{suggest(inp, TORQUES)}")
+        if "reference" in p:
+            raise ConfigError(f"identify.pairings[{i}].reference", "is for measured records "
+                              "only (a simulated record's model is scored against the truth)")
         for j, out in enumerate(p["outputs"]):
             if out not in SIGNALS:
                 raise ConfigError(f"identify.pairings[{i}].outputs[{j}]",
                                   f"'{out}' is not a recorded signal; {suggest(out, SIGNALS)}")
+    if cfg["measured"]:
+        return  # tests, profiles and best.* are of the simulated campaign
     if any(v != "clean" for v in idc["versions"]) and not cfg["campaign"]["measured_like"]:
         raise ConfigError("campaign.measured_like", "is false but identify.versions "
                           f"{idc['versions']} needs measured-like records ('raw', 'tsa'); set "
@@ -124,7 +137,13 @@ def _check_windows(cfg: Mapping[str, Any]) -> None:
 
 
 def check_identify(cfg: Mapping[str, Any]) -> None:
-    """Check rates, grid, pairings, windows and order of the ``identify`` section."""
-    _check_rates(cfg)
+    """Check rates, grid, pairings, windows and order of the ``identify`` section.
+
+    With ``measured`` records, the record-dependent checks are
+    :func:`gbpipe.config.measured.check_measured`'s (lengths: when the record is read).
+    """
+    if not cfg["measured"]:
+        _check_rates(cfg)
     _check_pairings(cfg)
-    _check_windows(cfg)
+    if not cfg["measured"]:
+        _check_windows(cfg)

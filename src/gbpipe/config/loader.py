@@ -28,7 +28,7 @@ from typing import Any
 
 import yaml
 
-from gbpipe.config import bounds, gearbox, identification, processing, records
+from gbpipe.config import bounds, gearbox, identification, measured, processing, records
 from gbpipe.config.derive import Config, derive
 from gbpipe.config.schema_validation import apply_schema
 from gbpipe.errors import ConfigError
@@ -82,6 +82,7 @@ def validate(cfg: Mapping[str, Any], *, check_stability: bool = True) -> Config:
     processing.check_tsa(out)
     processing.check_spectra(out)
     identification.check_identify(out)
+    measured.check_measured(out)
     if check_stability:
         bounds.check_gains(out)
     return out

@@ -78,7 +78,8 @@ def check_tsa(cfg: Mapping[str, Any]) -> None:
         _check_removal(cfg, f"tsa.variants[{i}].cycles", v["cycles"], v["averaging"], revs,
                        "sweep")
     idc = cfg["identify"]
-    if "tsa" not in idc["versions"]:
+    if "tsa" not in idc["versions"] or cfg["measured"]:
+        # a bench record's length is known once read: TSA then names what is missing
         return
     if not tsa["tests"]:
         raise ConfigError("tsa.tests", "is empty but identify.versions has 'tsa': name the "
@@ -112,8 +113,14 @@ def _check_frames(field: str, n_samples: float, frame: int, overlap: float, what
 def check_spectra(cfg: Mapping[str, Any]) -> None:
     """Check the spectra settings against the sweep record."""
     sp, sw = cfg["spectra"], cfg["sweep"]
+    for rec, spec in cfg["measured"].items():
+        names = [str(n) for n, sig in spec["signals"].items()
+                 if isinstance(sig, Mapping) and sig.get("quantity") != "tacho"]
+        if sp["signal"] not in names:
+            raise ConfigError("spectra.signal", f"'{sp['signal']}' is not a signal of "
+                              f"measured.{rec}; {suggest(sp['signal'], names)}")
     names = recorded_signals(cfg, "sweep")
-    if sp["signal"] not in names:
+    if not cfg["measured"] and sp["signal"] not in names:
         raise ConfigError("spectra.signal", f"'{sp['signal']}' is not a sweep signal; "
                           f"{suggest(sp['signal'], names)}")
     try:

@@ -54,8 +54,8 @@ def fig_bode_identified(datasets: Sequence, best: Mapping[str, Any],
         sel = ds.sel(model=key).isel(output=0, input=0)
         f = ds.frequency.values
         if not drawn_true:
-            ax.semilogx(f, _db(sel.frf_true_real.values, sel.frf_true_imag.values), "k", lw=2,
-                        label="true model (bench, other loop closed)")
+            ax.semilogx(f, _db(sel.frf_reference_real.values, sel.frf_reference_imag.values),
+                        "k", lw=2, label=ds.attrs["reference_description"])
             drawn_true = True
         m = ds.attrs["method"]
         bw = float(sel.match_bandwidth)

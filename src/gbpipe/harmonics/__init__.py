@@ -17,12 +17,26 @@ Modules, each one concept, lowest first:
 ``stage``      what the workflow calls (spectra, tsa, tsa_tests stages)
 =============  ==========================================================================
 
+Removal beyond TSA (issue 16):
+
+==================  =====================================================================
+``removal_inputs``  checked inputs shared by the methods below
+``vkf``             Vold-Kalman order tracking filter, second generation, joint orders
+``regression``      angle-domain least-squares regression, slowly varying amplitudes
+``drs``             discrete/random separation in the angle domain
+``cepstrum``        cepstral editing: comb liftering of the families' rahmonics
+``removal``         every method behind one signature (``METHODS``: tsa, vkf, ...)
+``separation``      exact separation metric: attenuation, distortion vs random-only
+==================  =====================================================================
+
 Imports only numpy, scipy, xarray and gbpipe's kinematics, units and errors: never the
 bench model or the simulator, so that it runs unchanged on measured records.
 """
 
 from gbpipe.harmonics.angle import AngleMap, resample_to_angle, resample_to_time
 from gbpipe.harmonics.averaging import AVERAGING, CyclePlan
+from gbpipe.harmonics.cepstrum import residual_cepstrum
+from gbpipe.harmonics.drs import residual_drs
 from gbpipe.harmonics.families import (
                                        cycle_orders,
                                        excitation_families,
@@ -31,6 +45,10 @@ from gbpipe.harmonics.families import (
                                        structural_modes,
 )
 from gbpipe.harmonics.metrics import family_attenuation, mode_band_change, removal_metrics
+from gbpipe.harmonics.regression import residual_regression
+from gbpipe.harmonics.removal import METHODS as REMOVAL_METHODS
+from gbpipe.harmonics.removal import family_cycles, remove_harmonics, residual_tsa
+from gbpipe.harmonics.separation import separation_metrics
 from gbpipe.harmonics.spectra import order_spectrum, order_spectrum_vs_rpm, power_spectrum_vs_rpm
 from gbpipe.harmonics.stage import (
                                        record_residuals,
@@ -49,6 +67,7 @@ from gbpipe.harmonics.tacho import (
 )
 from gbpipe.harmonics.tracking import order_amplitudes
 from gbpipe.harmonics.tsa import JointInfo, TSAInfo, residual, residual_joint, synchronous_average
+from gbpipe.harmonics.vkf import residual_vkf
 
 __all__ = [
     # tachometer and angle
@@ -62,6 +81,10 @@ __all__ = [
     # families and metrics
     "family_orders", "cycle_orders", "excitation_families", "removed_families",
     "structural_modes", "family_attenuation", "mode_band_change", "removal_metrics",
+    # removal methods beyond TSA, and their exact separation metric
+    "REMOVAL_METHODS", "remove_harmonics", "residual_tsa", "residual_vkf",
+    "residual_regression", "residual_drs", "residual_cepstrum", "family_cycles",
+    "separation_metrics",
     # workflow stages
     "remove", "waterfalls", "variant_metrics", "sweep_waterfalls", "tsa_variant",
     "record_residuals",

@@ -336,19 +336,10 @@ def mode_band_change(
 
 
 def removal_metrics(
-    before: np.ndarray,
-    after: np.ndarray,
-    fs: float,
-    pulse_times: np.ndarray,
-    families: Families,
-    modes: Sequence[float],
-    *,
-    rpm_bins: int | np.ndarray = 12,
-    band: float | None = 0.1,
-    half_width: float | Sequence[float] = 4.0,
-    resolution: float = 0.5,
-    pulses_per_rev: int = 1,
-    t0: float = 0.0,
+    before: np.ndarray, after: np.ndarray, fs: float, pulse_times: np.ndarray,
+    families: Families, modes: Sequence[float], *, rpm_bins: int | np.ndarray = 12,
+    band: float | None = 0.1, half_width: float | Sequence[float] = 4.0,
+    resolution: float = 0.5, pulses_per_rev: int = 1, t0: float = 0.0,
     method: AngleMethod = "pchip",
 ) -> xr.Dataset:
     """:func:`family_attenuation` and :func:`mode_band_change` on the same rpm bins.

@@ -23,7 +23,7 @@ resolution). Order spectra are power spectra only (a density per order is rarely
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Literal
+from typing import Any, Literal
 
 import numpy as np
 import xarray as xr
@@ -223,20 +223,10 @@ def _order_frames(x, fs, pulse_times, *, resolution, max_order, window, overlap,
 
 
 def order_spectrum_vs_rpm(
-    x: np.ndarray,
-    fs: float,
-    pulse_times: np.ndarray,
-    *,
-    resolution: float = 0.1,
-    max_order: float = 40.0,
-    window: str | tuple = "hann",
-    overlap: float = 0.5,
-    rpm_bins: int | np.ndarray = 36,
-    pulses_per_rev: int = 1,
-    t0: float = 0.0,
-    method: AngleMethod = "pchip",
-    units: str = "1",
-    long_name: str = "signal",
+    x: np.ndarray, fs: float, pulse_times: np.ndarray, *, resolution: float = 0.1,
+    max_order: float = 40.0, window: str | tuple = "hann", overlap: float = 0.5,
+    rpm_bins: int | np.ndarray = 36, pulses_per_rev: int = 1, t0: float = 0.0,
+    method: AngleMethod = "pchip", units: str = "1", long_name: str = "signal",
 ) -> xr.Dataset:
     """Order power spectrum vs order and shaft speed (order waterfall).
 
@@ -285,58 +275,36 @@ def order_spectrum_vs_rpm(
     )
 
 
-def order_spectrum(
-    x: np.ndarray,
-    fs: float,
-    pulse_times: np.ndarray,
-    *,
-    resolution: float = 0.05,
-    max_order: float = 50.0,
-    window: str | tuple = "hann",
-    overlap: float = 0.5,
-    pulses_per_rev: int = 1,
-    t0: float = 0.0,
-    method: AngleMethod = "pchip",
-    units: str = "1",
-    long_name: str = "signal",
-) -> xr.DataArray:
+def order_spectrum(x: np.ndarray, fs: float, pulse_times: np.ndarray, *,
+                   resolution: float = 0.05, max_order: float = 50.0,
+                   **options: Any) -> xr.DataArray:
     """Averaged order power spectrum of a whole record.
 
-    The record is resampled at constant angle (alias-free, low-passed to ``max_order``),
-    cut into frames of ``1 / resolution`` revolutions, windowed and averaged. Scaling is
-    a power spectrum: a component ``A cos(m theta)`` at an order bin shows ``A**2 / 2``.
-    For order spectra vs rpm see :func:`order_spectrum_vs_rpm`.
+    The order waterfall of :func:`order_spectrum_vs_rpm` with a single speed bin: every
+    frame of the record is averaged. Scaling is a power spectrum: a component
+    ``A cos(m theta)`` at an order bin shows ``A**2 / 2``.
 
     Parameters
     ----------
-    x, fs, pulse_times, pulses_per_rev, t0, method
+    x, fs, pulse_times
         As in :func:`gbpipe.harmonics.resample_to_angle`.
     resolution : float
         Order resolution [-] (bin spacing); frames span ``1 / resolution`` revolutions.
     max_order : float
         Highest order kept [-].
-    window : str or tuple
-        :func:`scipy.signal.get_window` spec.
-    overlap : float
-        Frame overlap fraction in [0, 1).
-    units, long_name : str
-        Unit and name of ``x`` (the result is in ``units`` squared).
+    **options
+        ``window``, ``overlap``, ``pulses_per_rev``, ``t0``, ``method``, ``units``,
+        ``long_name``, as in :func:`order_spectrum_vs_rpm`.
 
     Returns
     -------
     xarray.DataArray
         Dimension ``order`` [-]; attrs ``units``, ``long_name``, ``n_averages``.
     """
-    frames = _order_frames(x, fs, pulse_times, resolution=resolution, max_order=max_order,
-                           window=window, overlap=overlap, pulses_per_rev=pulses_per_rev,
-                           t0=t0, method=method)
-    power = frames.power.mean(axis=0)
-    keep = frames.order <= max_order
-    da = xr.DataArray(
-        power[keep], dims="order",
-        coords={"order": ("order", frames.order[keep],
-                          {"units": "1", "long_name": "order of the tachometer shaft"})},
-        attrs={"units": squared_units(units), "long_name": f"order power spectrum of "
-               f"{long_name}", "n_averages": int(frames.power.shape[0])},
-    )
+    ds = order_spectrum_vs_rpm(x, fs, pulse_times, resolution=resolution,
+                               max_order=max_order, rpm_bins=1, **options)
+    da = ds["power"].isel(rpm=0, drop=True).drop_vars(["rpm_lower", "rpm_upper"],
+                                                      errors="ignore")
+    da.attrs = {"units": da.attrs["units"], "long_name": da.attrs["long_name"],
+                "n_averages": int(ds["n_averages"].values[0])}
     return da

@@ -31,7 +31,7 @@ from gbpipe.harmonics.families import (
 from gbpipe.harmonics.metrics import removal_metrics
 from gbpipe.harmonics.spectra import order_spectrum_vs_rpm, power_spectrum_vs_rpm
 from gbpipe.harmonics.tsa import residual, residual_joint
-from gbpipe.units import TWO_PI
+from gbpipe.io import longest_segment, mean_shaft_frequency, measured_signal
 
 __all__ = ["waterfalls", "remove", "variant_metrics", "sweep_waterfalls", "tsa_variant",
            "record_residuals", "MODE_MIN_FREQUENCY"]
@@ -129,7 +129,9 @@ def variant_metrics(before: np.ndarray, after: np.ndarray, fs: float,
 
 
 def sweep_waterfalls(sweep: xr.Dataset, spec: Mapping[str, Any]) -> xr.Dataset:
-    """Waterfalls of the sweep signal ``spec["signal"]`` (the ``spectra`` stage)."""
+    """Waterfalls of the sweep signal ``spec["signal"]`` (the ``spectra`` stage), or of a
+    bench record's (its longest gap-free piece: :func:`gbpipe.io.longest_segment`)."""
+    sweep = longest_segment(sweep)
     x = sweep[spec["signal"]]
     return waterfalls(x.values.astype(float), float(sweep.attrs["sample_rate"]),
                       sweep.pulse_time.values, spec,
@@ -213,8 +215,9 @@ def record_residuals(record: xr.Dataset, names: Sequence[str],
     Parameters
     ----------
     record : xarray.Dataset
-        A test record with ``<name>_measured``, ``speed_gb1_hss`` [rad/s], ``pulse_time``
-        and attributes ``sample_rate``, ``pulses_per_rev``.
+        A test record (``<name>_measured``, ``speed_gb1_hss`` [rad/s]) or a measured record
+        (``<name>``; :func:`measured_signal`), with ``pulse_time`` of the GB1 HSS tacho and
+        attributes ``sample_rate``, ``pulses_per_rev``.
     names : sequence of str
         Signal names (without ``_measured``).
     stages : sequence of mapping
@@ -238,6 +241,7 @@ def record_residuals(record: xr.Dataset, names: Sequence[str],
         One variable per name (time) in the unit of the signal; attributes ``test``,
         ``profile``, ``sample_rate``, ``removed_cycles``, ``n_cycles``.
     """
+    record = longest_segment(record)
     fs = float(record.attrs["sample_rate"])
     pulses = np.asarray(record["pulse_time"].values, dtype=float)
     ppr = int(record.attrs["pulses_per_rev"])
@@ -245,13 +249,13 @@ def record_residuals(record: xr.Dataset, names: Sequence[str],
     removed = ", ".join(tsa_cfg["tests"])
     sos = None
     if cycles and keep_below > 0:
-        f_hss = float(np.mean(record["speed_gb1_hss"].values)) / TWO_PI
+        f_hss = mean_shaft_frequency(record)
         f_low = keep_below * min(float(c) for c in cycles) * f_hss
         sos = signal.butter(6, f_low, fs=fs, output="sos")
     ds = xr.Dataset(coords={"time": ("time", record.time.values,
                                      {"units": "s", "long_name": "time from record start"})})
     for name in names:
-        measured = record[f"{name}_measured"]
+        measured = measured_signal(record, name)
         x = np.asarray(measured.values, dtype=float)
         if cycles:
             low = signal.sosfiltfilt(sos, x) if sos is not None else np.zeros_like(x)

@@ -310,13 +310,8 @@ def _angle_or_speed(t: np.ndarray, pulse_times: np.ndarray, pulses_per_rev: int,
     return out
 
 
-def shaft_angle(
-    t: np.ndarray,
-    pulse_times: np.ndarray,
-    *,
-    pulses_per_rev: int = 1,
-    method: AngleMethod = "pchip",
-) -> np.ndarray:
+def shaft_angle(t: np.ndarray, pulse_times: np.ndarray, *, pulses_per_rev: int = 1,
+                method: AngleMethod = "pchip") -> np.ndarray:
     """Shaft angle at times ``t`` from the pulse times.
 
     Parameters
@@ -338,13 +333,8 @@ def shaft_angle(
     return _angle_or_speed(t, pulse_times, pulses_per_rev, method, derivative=0)
 
 
-def shaft_speed(
-    t: np.ndarray,
-    pulse_times: np.ndarray,
-    *,
-    pulses_per_rev: int = 1,
-    method: AngleMethod = "pchip",
-) -> np.ndarray:
+def shaft_speed(t: np.ndarray, pulse_times: np.ndarray, *, pulses_per_rev: int = 1,
+                method: AngleMethod = "pchip") -> np.ndarray:
     """Shaft speed at times ``t``: derivative of :func:`shaft_angle`.
 
     Parameters

@@ -29,7 +29,7 @@ import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from fractions import Fraction
-from typing import Literal
+from typing import Any, Literal
 
 import numpy as np
 
@@ -234,15 +234,9 @@ def residual(
     return r, TSAInfo(s, valid, c, n_cycles, plan.K, plan.n_rows, plan.M, means)
 
 
-def synchronous_average(
-    x: np.ndarray,
-    fs: float,
-    pulse_times: np.ndarray,
-    cycle_order: float | Fraction,
-    n_cycles: int = 10,
-    pulses_per_rev: int = 1,
-    **kwargs,
-) -> TSAInfo:
+def synchronous_average(x: np.ndarray, fs: float, pulse_times: np.ndarray,
+                        cycle_order: float | Fraction, n_cycles: int = 10,
+                        pulses_per_rev: int = 1, **kwargs: Any) -> TSAInfo:
     """Block mean cycles and the synchronous estimate, without subtracting.
 
     Same arguments as :func:`residual` (``unbiased``/``outside``/``return_info`` are
@@ -256,22 +250,12 @@ def synchronous_average(
 
 
 def residual_joint(
-    x: np.ndarray,
-    fs: float,
-    pulse_times: np.ndarray,
-    cycle_orders: Sequence[float | Fraction],
-    n_cycles: int | Sequence[int] = 10,
-    pulses_per_rev: int = 1,
-    *,
-    mode: Literal["joint", "cascade"] = "joint",
-    max_iter: int = 50,
-    tol: float = 3e-3,
-    unbiased: bool = False,
-    band_limit: float | None = 1.0,
-    averaging: Literal["block", "sliding", "quadratic"] = "block",
-    t0: float = 0.0,
-    method: AngleMethod = "pchip",
-    outside: Literal["keep", "nan"] = "keep",
+    x: np.ndarray, fs: float, pulse_times: np.ndarray, cycle_orders: Sequence[float | Fraction],
+    n_cycles: int | Sequence[int] = 10, pulses_per_rev: int = 1, *,
+    mode: Literal["joint", "cascade"] = "joint", max_iter: int = 50, tol: float = 3e-3,
+    unbiased: bool = False, band_limit: float | None = 1.0,
+    averaging: Literal["block", "sliding", "quadratic"] = "block", t0: float = 0.0,
+    method: AngleMethod = "pchip", outside: Literal["keep", "nan"] = "keep",
     return_info: bool = False,
 ) -> np.ndarray | tuple[np.ndarray, JointInfo]:
     """Remove several harmonic families together.

@@ -7,7 +7,9 @@ the records after harmonic removal from the ``tsa_tests`` stage
 Public API
 ----------
 identify_record(cfg, record, validation, truth, method, tsa_record, tsa_validation)
-    Every configured pairing x data version (clean, raw, tsa) of one record, one method.
+    Every configured pairing x data version (clean, raw, tsa) of one record, one method;
+    ``truth`` and ``validation`` None for a measured record (held-out end, nonparametric
+    reference).
 table_rows(datasets)
     Rows of ``results/tables/identification.csv`` from the stored models.
 models_dataset, model_matrices
@@ -17,7 +19,10 @@ fit_model, validation_fit, reflect_out_of_band
 condition, decimate, version_signals
     Records -> identification data.
 frf_error_db, match_bandwidth, identified_modes, match_modes
-    Identified vs true model.
+    Identified vs reference model.
+Reference, truth_reference, nonparametric_reference, within_reference
+    What an identified FRF is scored against: the true model (simulated records) or the
+    nonparametric FRF of the data with its 95 % bounds (measured records).
 """
 
 from gbpipe.identify.dataset import MODE_TOLERANCE, model_matrices, models_dataset
@@ -37,10 +42,18 @@ from gbpipe.identify.prepare import (
     operating_point,
     version_signals,
 )
-from gbpipe.identify.stage import identify_record, pairing_truth
+from gbpipe.identify.reference import (
+    Reference,
+    nonparametric_reference,
+    truth_reference,
+    within_reference,
+)
+from gbpipe.identify.stage import holdout_split, identify_record, record_label
 from gbpipe.identify.table import SHORT, table_rows
 
-__all__ = ["identify_record", "pairing_truth", "table_rows", "models_dataset",
+__all__ = ["identify_record", "holdout_split", "record_label", "Reference",
+           "truth_reference", "nonparametric_reference", "within_reference", "table_rows",
+           "models_dataset",
            "model_matrices", "fit_model", "validation_fit", "reflect_out_of_band",
            "condition", "decimate", "decimation_filter", "operating_point", "version_signals",
            "frf_error_db", "match_bandwidth", "identified_modes", "match_modes", "METHODS",

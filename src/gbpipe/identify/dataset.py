@@ -22,6 +22,87 @@ __all__ = ["MODE_TOLERANCE", "models_dataset", "model_matrices", "pad"]
 MODE_TOLERANCE = 0.02
 
 
+#: Mixed units of the identified matrices (``comment`` attribute).
+_MAT_NOTE = ("mixed units: state in identified coordinates; inputs in N m, outputs in rad/s, "
+             "at the identification sample time")
+_FRF = ("model", "frequency", "output", "input")
+_FRF_UNITS = "rad s-1 N-1 m-1"
+
+#: The float variables of :func:`models_dataset`: (variable, key of its padded array,
+#: dimensions, units, long name, comment or None), in file order.
+_ARRAYS: tuple[tuple[str, str, tuple[str, ...], str, str, str | None], ...] = (
+    ("A", "A", ("model", "state", "state_col"), "1",
+     "identified discrete-time state matrix A", None),
+    ("B", "B", ("model", "state", "input"), "1", "identified input matrix B", _MAT_NOTE),
+    ("C", "C", ("model", "output", "state"), "1", "identified output matrix C", _MAT_NOTE),
+    ("D", "D", ("model", "output", "input"), "1", "identified feedthrough matrix D (fixed 0)",
+     _MAT_NOTE),
+    ("K", "K", ("model", "state", "output"), "1", "identified innovation (Kalman) gain K",
+     _MAT_NOTE),
+    ("noise_cov", "noise_cov", ("model", "output", "output_col"), "1",
+     "innovation covariance", "output units squared, (rad/s)^2"),
+    ("singular_values", "sv", ("model", "sv_index"), "1",
+     "singular values of the order decision (scaled data)", None),
+    ("frf_identified_real", "frf_re", _FRF, _FRF_UNITS, "identified FRF, real part", None),
+    ("frf_identified_imag", "frf_im", _FRF, _FRF_UNITS, "identified FRF, imaginary part",
+     None),
+    ("frf_reference_real", "ref_re", _FRF, _FRF_UNITS,
+     "reference FRF (see the reference attribute), real part", None),
+    ("frf_reference_imag", "ref_im", _FRF, _FRF_UNITS,
+     "reference FRF (see the reference attribute), imaginary part", None),
+    ("frf_reference_lower", "ref_lo", _FRF, _FRF_UNITS,
+     "lower 95 % bound of the reference FRF magnitude (NaN: exact reference)", None),
+    ("frf_reference_upper", "ref_hi", _FRF, _FRF_UNITS,
+     "upper 95 % bound of the reference FRF magnitude (NaN: exact reference)", None),
+    ("coherence", "coh", _FRF, "1",
+     "coherence of the reference estimate (NaN: exact reference)", None),
+    ("reference_band_max", "band", ("model",), "Hz",
+     "highest frequency the reference can assess (its highest coherent frequency)", None),
+    ("assessable", "assess", ("model", "frequency"), "1",
+     "1 where the reference can judge a model (coherent estimate, or the truth), else 0",
+     None),
+    ("frf_error", "err", _FRF, "dB",
+     "FRF magnitude error, identified vs reference (0 inside the reference's 95 % bounds, "
+     "NaN above its band)", None),
+    ("match_bandwidth", "bw", ("model",), "Hz",
+     "highest frequency up to which every FRF element is within tolerance of the reference",
+     None),
+    ("element_match_bandwidth", "ebw", ("model", "output", "input"), "Hz",
+     "match bandwidth per FRF element", None),
+    ("fit", "fit", ("model", "output"), "percent",
+     "simulation fit on the validation record (x0 estimated)", None),
+    ("mode_true", "mt", ("model", "mode"), "Hz",
+     "true modal frequency in the band (none for a measured record)", None),
+    ("mode_true_damping", "zt", ("model", "mode"), "1", "true modal damping ratio", None),
+    ("mode_matched", "mm", ("model", "mode"), "Hz",
+     "identified modal frequency nearest to the true mode", None),
+    ("mode_identified", "mi", ("model", "mode_id"), "Hz",
+     "identified lightly damped modal frequency in the band", None),
+    ("mode_identified_damping", "zi", ("model", "mode_id"), "1",
+     "identified modal damping ratio", None),
+)
+
+
+def frf_units(record: xr.Dataset, results: Sequence[Mapping[str, Any]]) -> str:
+    """Unit of the stored FRFs: output unit per input unit, from the record's signals.
+
+    One unit for the whole file, as CF wants; pairings with different unit ratios get
+    ``1`` and a per-model note is left to ``input_name``/``output_name``.
+    """
+    def unit(name: str) -> str:
+        return str(record[name].attrs.get("units", "1")) if name in record else "1"
+
+    ratios = {(unit(o), unit(i)) for r in results for o in r["outputs"] for i in r["inputs"]}
+    if len(ratios) != 1:
+        return "1"
+    out, inp = ratios.pop()
+    if out == inp:
+        return "1"
+    if (out, inp) == ("rad/s", "N m"):
+        return _FRF_UNITS
+    return f"({out})/({inp})"
+
+
 def pad(a: np.ndarray, shape: tuple[int, ...]) -> np.ndarray:
     """``a`` in the leading corner of a NaN array of ``shape`` (models of unequal size)."""
     out = np.full(shape, np.nan)
@@ -29,28 +110,28 @@ def pad(a: np.ndarray, shape: tuple[int, ...]) -> np.ndarray:
     return out
 
 
-def models_dataset(results: Sequence[Mapping[str, Any]], f: np.ndarray, dt: float, method: str,
+def models_dataset(results: Sequence[Mapping[str, Any]], dt: float, method: str,
                    s: Mapping[str, Any], record: xr.Dataset,
-                   validation: xr.Dataset) -> xr.Dataset:
+                   validation: xr.Dataset | None) -> xr.Dataset:
     """The identify job's output: every model of one job on a ``model`` dimension.
 
     Parameters
     ----------
     results : sequence of mapping
         One per pairing x version, as :func:`gbpipe.identify.identify_record` collects
-        them: ``pairing``, ``version``, ``inputs``, ``outputs``, ``status``, ``g_true``,
-        ``modes_true``, ``zeta_true``, and for a fitted model ``model``, ``g_id``, ``err``,
-        ``fit``, ``bandwidth``, ``element_bw``, ``modes_id``, ``zeta_id``,
-        ``modes_matched`` (``model`` None when the fit raised).
-    f : ndarray
-        FRF grid [Hz].
+        them: ``pairing``, ``version``, ``inputs``, ``outputs``, ``status``, ``ref`` (a
+        :class:`gbpipe.identify.reference.Reference`; all on one frequency grid), and for
+        a fitted model ``model``, ``g_id``, ``err``, ``fit``, ``bandwidth``,
+        ``element_bw``, ``modes_id``, ``zeta_id``, ``modes_matched`` (``model`` None when
+        the fit raised).
     dt : float
         Identification sample interval [s].
     method : str
     s : mapping
         The validated ``identify`` section.
     record, validation : xarray.Dataset
-        The identified and the validation record (their attributes are recorded).
+        The identified and the validation record (their attributes are recorded);
+        ``validation`` None when the end of ``record`` was held out.
 
     Returns
     -------
@@ -60,28 +141,32 @@ def models_dataset(results: Sequence[Mapping[str, Any]], f: np.ndarray, dt: floa
         of each model (docs/architecture.md, "Data contract").
     """
     nm = len(results)
+    refs = [r["ref"] for r in results]
+    f = refs[0].frequency
     models = [r["model"] for r in results]
     nx = max([m.order for m in models if m is not None] or [1])
     nu = max(len(r["inputs"]) for r in results)
     ny = max(len(r["outputs"]) for r in results)
     nsv = max([m.singular_values.size for m in models if m is not None] or [1])
-    nmode = max([len(r["modes_true"]) for r in results] + [1])
+    nmode = max([len(ref.modes) for ref in refs] + [1])
     nmid = max([len(r.get("modes_id", [])) for r in results] + [1])
     nf = f.size
     arr = {k: np.full(shape, np.nan) for k, shape in {
         "A": (nm, nx, nx), "B": (nm, nx, nu), "C": (nm, ny, nx), "D": (nm, ny, nu),
         "K": (nm, nx, ny), "noise_cov": (nm, ny, ny), "sv": (nm, nsv),
-        "frf_re": (nm, nf, ny, nu), "frf_im": (nm, nf, ny, nu), "true_re": (nm, nf, ny, nu),
-        "true_im": (nm, nf, ny, nu), "err": (nm, nf, ny, nu), "bw": (nm,),
+        **dict.fromkeys(("frf_re", "frf_im", "ref_re", "ref_im", "ref_lo", "ref_hi", "coh",
+                        "err"), (nm, nf, ny, nu)), "bw": (nm,), "band": (nm,), "assess": (nm, nf),
         "ebw": (nm, ny, nu), "fit": (nm, ny), "mt": (nm, nmode), "zt": (nm, nmode),
         "mm": (nm, nmode), "mi": (nm, nmid), "zi": (nm, nmid)}.items()}
     order = np.zeros(nm, dtype=np.int32)
     for k, r in enumerate(results):
-        g = r["g_true"]
-        arr["true_re"][k] = pad(g.real, (nf, ny, nu))
-        arr["true_im"][k] = pad(g.imag, (nf, ny, nu))
-        arr["mt"][k] = pad(r["modes_true"], (nmode,))
-        arr["zt"][k] = pad(r["zeta_true"], (nmode,))
+        ref = r["ref"]
+        for key, val in (("ref_re", ref.frf.real), ("ref_im", ref.frf.imag),
+                         ("ref_lo", ref.lower), ("ref_hi", ref.upper), ("coh", ref.coherence),
+                         ("mt", ref.modes), ("zt", ref.damping),
+                         ("assess", ref.assessable.astype(float))):
+            arr[key][k] = pad(val, arr[key].shape[1:])
+        arr["band"][k] = ref.band_max
         m = r["model"]
         if m is None:
             continue
@@ -99,8 +184,6 @@ def models_dataset(results: Sequence[Mapping[str, Any]], f: np.ndarray, dt: floa
     def strs(rows: list[list[str]], n: int) -> np.ndarray:
         return np.array([row + [""] * (n - len(row)) for row in rows], dtype=object)
 
-    mat_note = ("mixed units: state in identified coordinates; inputs in N m, outputs in "
-                "rad/s, at the identification sample time")
     dims_m = ("model",)
     v = {
         "pairing": (dims_m, np.array([r["pairing"] for r in results], dtype=object),
@@ -112,6 +195,8 @@ def models_dataset(results: Sequence[Mapping[str, Any]], f: np.ndarray, dt: floa
                        {"units": "1", "long_name": "input signal of each input channel"}),
         "output_name": (("model", "output"), strs([r["outputs"] for r in results], ny),
                         {"units": "1", "long_name": "output signal of each output channel"}),
+        "frf_unit": (dims_m, np.array([frf_units(record, [r]) for r in results], dtype=object),
+                     {"units": "1", "long_name": "unit of this model's FRF (output per input)"}),
         "status": (dims_m, np.array([r["status"] for r in results], dtype=object),
                    {"units": "1", "long_name": "identification status"}),
         "order": (dims_m, order, {"units": "1", "long_name": "identified model order"}),
@@ -119,61 +204,9 @@ def models_dataset(results: Sequence[Mapping[str, Any]], f: np.ndarray, dt: floa
                      {"units": "1", "long_name": "number of inputs"}),
         "n_outputs": (dims_m, np.array([len(r["outputs"]) for r in results], dtype=np.int32),
                       {"units": "1", "long_name": "number of outputs"}),
-        "A": (("model", "state", "state_col"), arr["A"],
-              {"units": "1", "long_name": "identified discrete-time state matrix A"}),
-        "B": (("model", "state", "input"), arr["B"],
-              {"units": "1", "long_name": "identified input matrix B", "comment": mat_note}),
-        "C": (("model", "output", "state"), arr["C"],
-              {"units": "1", "long_name": "identified output matrix C", "comment": mat_note}),
-        "D": (("model", "output", "input"), arr["D"],
-              {"units": "1", "long_name": "identified feedthrough matrix D (fixed 0)",
-               "comment": mat_note}),
-        "K": (("model", "state", "output"), arr["K"],
-              {"units": "1", "long_name": "identified innovation (Kalman) gain K",
-               "comment": mat_note}),
-        "noise_cov": (("model", "output", "output_col"), arr["noise_cov"],
-                      {"units": "1", "long_name": "innovation covariance",
-                       "comment": "output units squared, (rad/s)^2"}),
-        "singular_values": (("model", "sv_index"), arr["sv"],
-                            {"units": "1", "long_name": "singular values of the order "
-                                                        "decision (scaled data)"}),
-        "frf_identified_real": (("model", "frequency", "output", "input"), arr["frf_re"],
-                                {"units": "rad s-1 N-1 m-1",
-                                 "long_name": "identified FRF, real part"}),
-        "frf_identified_imag": (("model", "frequency", "output", "input"), arr["frf_im"],
-                                {"units": "rad s-1 N-1 m-1",
-                                 "long_name": "identified FRF, imaginary part"}),
-        "frf_true_real": (("model", "frequency", "output", "input"), arr["true_re"],
-                          {"units": "rad s-1 N-1 m-1",
-                           "long_name": "true FRF (bench model, other loop closed), real part"}),
-        "frf_true_imag": (("model", "frequency", "output", "input"), arr["true_im"],
-                          {"units": "rad s-1 N-1 m-1",
-                           "long_name": "true FRF (bench model, other loop closed), "
-                                        "imaginary part"}),
-        "frf_error": (("model", "frequency", "output", "input"), arr["err"],
-                      {"units": "dB", "long_name": "FRF magnitude error, identified vs true"}),
-        "match_bandwidth": (dims_m, arr["bw"],
-                            {"units": "Hz", "long_name": "highest frequency up to which every "
-                                                         "FRF element is within tolerance"}),
-        "element_match_bandwidth": (("model", "output", "input"), arr["ebw"],
-                                    {"units": "Hz", "long_name": "match bandwidth per FRF "
-                                                                 "element"}),
-        "fit": (("model", "output"), arr["fit"],
-                {"units": "percent", "long_name": "simulation fit on the validation record "
-                                                  "(x0 estimated)"}),
-        "mode_true": (("model", "mode"), arr["mt"],
-                      {"units": "Hz", "long_name": "true modal frequency in the band"}),
-        "mode_true_damping": (("model", "mode"), arr["zt"],
-                              {"units": "1", "long_name": "true modal damping ratio"}),
-        "mode_matched": (("model", "mode"), arr["mm"],
-                         {"units": "Hz", "long_name": "identified modal frequency nearest to "
-                                                      "the true mode"}),
-        "mode_identified": (("model", "mode_id"), arr["mi"],
-                            {"units": "Hz", "long_name": "identified lightly damped modal "
-                                                         "frequency in the band"}),
-        "mode_identified_damping": (("model", "mode_id"), arr["zi"],
-                                    {"units": "1", "long_name": "identified modal damping "
-                                                                "ratio"}),
+        **{name: (dims, arr[key], {"units": units, "long_name": long_name,
+                                   **({"comment": comment} if comment else {})})
+           for name, key, dims, units, long_name, comment in _ARRAYS},
     }
     coords = {
         "model": ("model", np.array(names, dtype=object),
@@ -193,10 +226,18 @@ def models_dataset(results: Sequence[Mapping[str, Any]], f: np.ndarray, dt: floa
                                                  "long_name": "identified mode index"}),
     }
     ds = xr.Dataset(v, coords=coords)
+    units = frf_units(record, results)
+    for name in ("frf_identified_real", "frf_identified_imag", "frf_reference_real",
+                 "frf_reference_imag", "frf_reference_lower", "frf_reference_upper"):
+        ds[name].attrs["units"] = units
     ds["sample_time"] = ((), dt, {"units": "s", "long_name": "identification sample time"})
-    ds.attrs.update(method=method, test=str(record.attrs.get("test", "")),
+    ds.attrs.update(method=method,
+                    test=str(record.attrs.get("test", record.attrs.get("record", ""))),
                     profile=str(record.attrs.get("profile", "")),
-                    validation_test=str(validation.attrs.get("test", "")),
+                    validation_test=(str(validation.attrs.get("test", validation.attrs.get(
+                        "record", ""))) if validation is not None else
+                        f"held out: last {s['holdout']:g} of the record"),
+                    reference=refs[0].kind, reference_description=refs[0].description,
                     tolerance_db=float(s["tolerance_db"]),
                     mode_tolerance=MODE_TOLERANCE, past=int(s["past"]),
                     future=int(s["future"]), order_setting=str(s["order"]),

@@ -28,6 +28,7 @@ import xarray as xr
 from scipy import signal
 
 from gbpipe.errors import ConfigError, DataError
+from gbpipe.io import measured_signal
 
 __all__ = ["VERSIONS", "VALIDATION_PARTNER", "operating_point", "decimation_filter",
            "decimate", "condition", "version_signals"]
@@ -180,14 +181,18 @@ def version_signals(ds: xr.Dataset, names: Sequence[str], version: str,
     if version == "tsa":
         if tsa_ds is None:
             raise ValueError("version 'tsa' needs the tsa_tests output of the record (tsa_ds)")
-        src, fmt = tsa_ds, "{}"
+        src = [tsa_ds[n] if n in tsa_ds else None for n in names]
+    elif version == "raw":
+        src = [measured_signal(ds, n) for n in names]
     else:
-        src, fmt = ds, ("{}" if version == "clean" else "{}_measured")
+        if ds.attrs.get("record_kind") == "measured":
+            raise ValueError("version 'clean' exists only for simulated records: a measured "
+                             "record has raw (and tsa) data; set identify.versions")
+        src = [ds[n] if n in ds else None for n in names]
     out = []
-    for n in names:
-        key = fmt.format(n)
-        if key not in src:
-            raise DataError(key, "is not in the record; identify.pairings may only name "
+    for n, da in zip(names, src, strict=True):
+        if da is None:
+            raise DataError(n, "is not in the record; identify.pairings may only name "
                             "recorded signals")
-        out.append(np.asarray(src[key].values, dtype=float))
+        out.append(np.asarray(da.values, dtype=float))
     return out

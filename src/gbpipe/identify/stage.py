@@ -17,72 +17,64 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
-from gbpipe.errors import DataError, StageError
+from gbpipe.errors import StageError
 from gbpipe.identify.dataset import models_dataset
 from gbpipe.identify.fitting import METHODS, fit_model, validation_fit
-from gbpipe.identify.metrics import frf_error_db, identified_modes, match_bandwidth, match_modes
+from gbpipe.identify.metrics import identified_modes, match_modes
 from gbpipe.identify.prepare import condition, version_signals
+from gbpipe.identify.reference import (
+    Reference,
+    nonparametric_reference,
+    reference_bandwidth,
+    truth_reference,
+    within_reference,
+)
+from gbpipe.io import longest_segment
 
-__all__ = ["identify_record", "pairing_truth"]
+__all__ = ["identify_record", "holdout_split", "record_label"]
 
 log = logging.getLogger("gbpipe")
 
 
-def pairing_truth(truth: xr.Dataset, pairing: Mapping[str, Any]
-                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """True FRF and modes of one pairing from the model stage's ``truth.nc``.
-
-    Returns
-    -------
-    g_true : ndarray, shape (n_freq, n_outputs, n_inputs), complex
-    freq_hz, zeta : ndarray
-        True modes in the band (NaN padding removed).
-
-    Raises
-    ------
-    gbpipe.errors.DataError
-        The pairing is not in ``truth`` or its signals differ (a stale truth file).
-    """
-    name, ins, outs = pairing["name"], list(pairing["inputs"]), list(pairing["outputs"])
-    if name not in truth.pairing.values:
-        raise DataError("truth.nc", f"has no pairing '{name}' (it holds "
-                        f"{list(truth.pairing.values)}): rerun the model stage")
-    sel = truth.sel(pairing=name)
-    t_ins = [str(x) for x in sel.input_name.values[:len(ins)]]
-    t_outs = [str(x) for x in sel.output_name.values[:len(outs)]]
-    if t_ins != ins or t_outs != outs:
-        raise DataError("truth.nc", f"pairing '{name}' is {t_ins} -> {t_outs}, the config "
-                        f"says {ins} -> {outs}: rerun the model stage")
-    g = sel.frf_true_real.values + 1j * sel.frf_true_imag.values
-    fm, zm = sel.mode_frequency_true.values, sel.mode_damping_true.values
-    keep = np.isfinite(fm)
-    return g[:, :len(outs), :len(ins)], fm[keep], zm[keep]
-
-
 def _fit_row(res: dict[str, Any], method: str, data: tuple[np.ndarray, ...], dt: float,
-             f: np.ndarray, s: Mapping[str, Any]) -> None:
-    # fit one pairing x version, score it against the truth; fills `res` in place
+             s: Mapping[str, Any]) -> None:
+    # fit one pairing x version, score it against its reference; fills `res` in place
     u, y, uv, yv = data
+    ref: Reference = res["ref"]
     m = fit_model(method, u, y, dt, s)
-    g_id = m.frf(f)
-    err = frf_error_db(g_id, res["g_true"])
+    g_id = m.frf(ref.frequency)
+    err = within_reference(g_id, ref, s["tolerance_db"])
     fit = validation_fit(m, uv, yv, int(round(s["fit_segment"] / dt)))
     fm_id, zm_id = identified_modes(m.A, dt, s["frf"]["f_max"], s["zeta_max"])
     tol = s["tolerance_db"]
+    # where the reference cannot judge (an incoherent estimate) the error is NaN: those
+    # frequencies are skipped, they do not count as a miss
+    f = ref.frequency
     res.update(model=m, g_id=g_id, err=err, fit=fit,
-               bandwidth=match_bandwidth(f, err, tol),
-               element_bw=np.array([[match_bandwidth(f, err[:, o, i], tol)
+               bandwidth=reference_bandwidth(f, err, ref, tol),
+               element_bw=np.array([[reference_bandwidth(f, err[:, o, i], ref, tol)
                                      for i in range(err.shape[2])]
                                     for o in range(err.shape[1])]),
                modes_id=fm_id, zeta_id=zm_id,
-               modes_matched=match_modes(res["modes_true"], fm_id))
+               modes_matched=match_modes(ref.modes, fm_id))
     # a NaN or inf fit is a failure, never "ok"
     res["status"] = ("ok" if np.all(np.isfinite(fit)) else
                      f"failed: validation fit is not finite ({np.round(fit, 1).tolist()} %)")
 
 
-def identify_record(cfg: Mapping[str, Any], record: xr.Dataset, validation: xr.Dataset,
-                    truth: xr.Dataset, method: str, tsa_record: xr.Dataset | None = None,
+def holdout_split(x: np.ndarray, share: float) -> tuple[np.ndarray, np.ndarray]:
+    """Fit and validation parts of conditioned data: the last ``share`` is held out.
+
+    Used when a measured record has no validation record of its own: the fit % is then
+    computed on data the fit never saw (the end of the record).
+    """
+    n_val = int(round(share * len(x)))
+    return x[:len(x) - n_val], x[len(x) - n_val:]
+
+
+def identify_record(cfg: Mapping[str, Any], record: xr.Dataset,
+                    validation: xr.Dataset | None, truth: xr.Dataset | None, method: str,
+                    tsa_record: xr.Dataset | None = None,
                     tsa_validation: xr.Dataset | None = None) -> xr.Dataset:
     """Identify every configured pairing x data version of one record with one method.
 
@@ -90,19 +82,26 @@ def identify_record(cfg: Mapping[str, Any], record: xr.Dataset, validation: xr.D
     ----------
     cfg : mapping
         Validated configuration slice: ``campaign.settle`` and the ``identify`` section.
-    record, validation : xarray.Dataset
-        Records (``gbpipe.simulate.test``, or measured): the one identified and the one
-        the fit % is computed on (never used for fitting).
-    truth : xarray.Dataset
-        The model stage's ``truth.nc``: true FRFs on the identification grid and modes.
+    record : xarray.Dataset
+        The record identified: simulated (:func:`gbpipe.simulate.test`) or measured
+        (:func:`gbpipe.measured.read`).
+    validation : xarray.Dataset or None
+        The record the fit % is computed on (never used for fitting). None: the last
+        ``identify.holdout`` share of ``record`` is held out instead.
+    truth : xarray.Dataset or None
+        The model stage's ``truth.nc`` (true FRFs on the identification grid, modes). None
+        for a measured record: each model is scored against the nonparametric FRF of the
+        same data in its coherent band (:mod:`gbpipe.identify.reference`).
     method : {"pbsid", "moesp", "n4sid"}
     tsa_record, tsa_validation : xarray.Dataset, optional
-        ``tsa_tests`` outputs of both records (required for the ``tsa`` version).
+        ``tsa_tests`` outputs of both records (required for the ``tsa`` version;
+        ``tsa_validation`` only with a validation record).
 
     Returns
     -------
     xarray.Dataset
-        :func:`gbpipe.identify.models_dataset`; ``status`` says "ok" or why a row failed.
+        :func:`gbpipe.identify.models_dataset`; ``status`` says "ok" or why a row failed;
+        the ``reference`` attribute says what the FRFs were scored against.
 
     Raises
     ------
@@ -112,47 +111,60 @@ def identify_record(cfg: Mapping[str, Any], record: xr.Dataset, validation: xr.D
         Every row failed (the message lists each failure).
     """
     s = cfg["identify"]
+    record = longest_segment(record)  # a split bench record: its longest piece
     if method not in METHODS:
         raise ValueError(f"unknown method {method!r}; use {', '.join(METHODS)}")
-    if "tsa" in s["versions"] and (tsa_record is None or tsa_validation is None):
+    if "tsa" in s["versions"] and (tsa_record is None or
+                                   (validation is not None and tsa_validation is None)):
         raise ValueError("version 'tsa' needs tsa_record and tsa_validation (tsa_tests outputs)")
     fs = float(record.attrs["sample_rate"])
     settle = float(cfg["campaign"]["settle"])
     fs_id = float(s["sample_rate"])
     dt = 1.0 / fs_id
-    f = np.asarray(truth.frequency.values, dtype=float)
 
-    def prepared(ds: xr.Dataset, names: list[str], version: str,
-                 tsa_ds: xr.Dataset | None) -> np.ndarray:
+    def prepared(ds: xr.Dataset | None, names: list[str], version: str,
+                 tsa_ds: xr.Dataset | None) -> np.ndarray | None:
+        if ds is None:
+            return None
         return condition(version_signals(ds, names, version, tsa_ds), fs, settle, fs_id,
                          s["lowpass"])
 
     results = []
     for p in s["pairings"]:
-        g_true, fm_true, zm_true = pairing_truth(truth, p)
+        ref_truth = truth_reference(truth, p) if truth is not None else None
         for version in s["versions"]:
             tr, tv = (tsa_record, tsa_validation) if version == "tsa" else (None, None)
+            u, y = (prepared(record, p[k], version, tr) for k in ("inputs", "outputs"))
+            uv, yv = (prepared(validation, p[k], version, tv) for k in ("inputs", "outputs"))
+            # a mapped set-point of a closed-loop bench record: the nonparametric estimate
+            # goes through it, free of the feedback's bias (its version is immaterial)
+            r = prepared(record, p["reference"], "raw", None) if "reference" in p else None
+            if validation is None:
+                (u, uv), (y, yv) = holdout_split(u, s["holdout"]), holdout_split(y, s["holdout"])
+                r = None if r is None else holdout_split(r, s["holdout"])[0]
+            ref = ref_truth or nonparametric_reference(u, y, fs_id, s, r)
             res = {"pairing": p["name"], "version": version, "inputs": list(p["inputs"]),
-                   "outputs": list(p["outputs"]), "g_true": g_true, "modes_true": fm_true,
-                   "zeta_true": zm_true, "model": None}
-            data = (prepared(record, p["inputs"], version, tr),
-                    prepared(record, p["outputs"], version, tr),
-                    prepared(validation, p["inputs"], version, tv),
-                    prepared(validation, p["outputs"], version, tv))
+                   "outputs": list(p["outputs"]), "ref": ref, "model": None}
             try:
-                _fit_row(res, method, data, dt, f, s)
+                _fit_row(res, method, (u, y, uv, yv), dt, s)
             except (ValueError, RuntimeError, np.linalg.LinAlgError) as exc:
                 res.update(status=f"failed: {type(exc).__name__}: {exc}", model=None)
             if res["status"] == "ok":
-                log.info("%s %-14s %-5s order %2d: bandwidth %6.1f Hz, fit %s %%", method,
-                         p["name"], version, res["model"].order, res["bandwidth"],
-                         np.round(res["fit"], 1))
+                log.info("%s %-14s %-5s order %2d: bandwidth %6.1f Hz (vs %s), fit %s %%",
+                         method, p["name"], version, res["model"].order, res["bandwidth"],
+                         ref.kind, np.round(res["fit"], 1))
             else:
                 log.warning("%s %s/%s %s", method, p["name"], version, res["status"])
             results.append(res)
     if not any(r["status"] == "ok" for r in results):
         failures = "\n".join(f"  {r['pairing']}/{r['version']}: {r['status']}" for r in results)
-        raise StageError(f"identify {method} on {record.attrs.get('test', '?')} "
-                         f"({record.attrs.get('profile', '?')}): all {len(results)} "
+        raise StageError(f"identify {method} on {record_label(record)}: all {len(results)} "
                          f"identifications failed:\n{failures}")
-    return models_dataset(results, f, dt, method, s, record, validation)
+    return models_dataset(results, dt, method, s, record, validation)
+
+
+def record_label(record: xr.Dataset) -> str:
+    """``test (profile)`` of a simulated record, ``record <name>`` of a measured one."""
+    if "record" in record.attrs:
+        return f"record {record.attrs['record']}"
+    return f"{record.attrs.get('test', '?')} ({record.attrs.get('profile', '?')})"

@@ -13,6 +13,9 @@ atomic_path, clean_temporaries
     Atomic output files, and the clean-up of what killed jobs left (:mod:`gbpipe.io.atomic`).
 config_sha256, file_sha256, source_files
     Provenance (:mod:`gbpipe.io.provenance`).
+measured_signal, mean_shaft_frequency, longest_segment
+    The record contract: the measured form of a signal, the tacho shaft's mean speed, the
+    longest gap-free piece of a split bench record (:mod:`gbpipe.io.records`).
 cf_units, TIME_EPOCH
     CF unit spelling and the epoch of relative time axes (:mod:`gbpipe.io.cf`).
 """
@@ -21,8 +24,10 @@ from gbpipe.io.atomic import atomic_path, clean_temporaries
 from gbpipe.io.cf import TIME_EPOCH, cf_units
 from gbpipe.io.netcdf import read, write
 from gbpipe.io.provenance import config_sha256, file_sha256, source_files
+from gbpipe.io.records import longest_segment, mean_shaft_frequency, measured_signal
 from gbpipe.io.runlog import setup_log
 from gbpipe.io.tables import write_csv
 
 __all__ = ["write", "read", "write_csv", "setup_log", "atomic_path", "clean_temporaries",
-           "config_sha256", "file_sha256", "source_files", "cf_units", "TIME_EPOCH"]
+           "config_sha256", "file_sha256", "source_files", "cf_units", "TIME_EPOCH",
+           "measured_signal", "mean_shaft_frequency", "longest_segment"]

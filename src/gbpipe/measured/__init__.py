@@ -17,6 +17,6 @@ The format, the checks and an example: ``docs/measured.md``.
 
 from gbpipe.measured.inspect import format_listing, list_channels
 from gbpipe.measured.record import read
-from gbpipe.measured.spec import parse
+from gbpipe.measured.spec import RecordSpec, SignalSpec, parse
 
-__all__ = ["read", "list_channels", "format_listing", "parse"]
+__all__ = ["read", "list_channels", "format_listing", "parse", "RecordSpec", "SignalSpec"]

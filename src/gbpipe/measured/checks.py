@@ -1,16 +1,25 @@
 """Checks of channel values: NaN or inf, clipping, length. Each error names the file,
-the channel, and the sample index."""
+the channel, and the sample index.
+
+:func:`finite` and :func:`clipping` check an array in memory; :func:`scan` makes the same
+checks on a :class:`gbpipe.measured.columns.Column` read block by block (long records),
+with runs that span blocks followed by :class:`RunTracker`.
+"""
 
 from __future__ import annotations
 
 import numpy as np
 
 from gbpipe.errors import DataError
+from gbpipe.measured.columns import Column, blocks
 
-__all__ = ["finite", "clipping", "length", "CLIP_RUN"]
+__all__ = ["finite", "clipping", "length", "scan", "Bridged", "RunTracker", "CLIP_RUN",
+           "BLOCK"]
 
 #: this many equal consecutive samples at the channel's extreme count as a flat top
 CLIP_RUN = 5
+#: samples per block of the streamed checks (8 MB of float64)
+BLOCK = 1 << 20
 
 
 def _runs(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -36,15 +45,7 @@ def finite(values: np.ndarray, source: str, bridge_upto: int = 0) -> np.ndarray:
     bad = ~np.isfinite(values)
     if not bad.any():
         return values
-    starts, lengths = _runs(bad)
-    over = np.flatnonzero((lengths > bridge_upto) | (starts == 0)
-                          | (starts + lengths == values.size))
-    if over.size:
-        i = over[0]
-        why = "" if not bridge_upto else f" (longer than interpolate_upto = {bridge_upto}, " \
-            "or at an end)"
-        raise DataError(source, f"{lengths[i]} NaN/inf sample(s){why}; {int(bad.sum())} "
-                        f"in all", sample=int(starts[i]))
+    _refuse_nan(*_runs(bad), values.size, int(bad.sum()), source, bridge_upto)
     good = np.flatnonzero(~bad)
     out = values.copy()
     out[bad] = np.interp(np.flatnonzero(bad), good, values[good])
@@ -65,11 +66,9 @@ def clipping(values: np.ndarray, source: str,
     if values.size == 0:
         return
     if converter_range is not None:
-        lo, hi = converter_range
-        at = np.flatnonzero((values <= lo) | (values >= hi))
+        at = np.flatnonzero(_beyond(values, converter_range))
         if at.size:
-            raise DataError(source, f"clipped: {at.size} sample(s) at the converter range "
-                            f"[{lo:g}, {hi:g}] (field 'range')", sample=int(at[0]))
+            raise _clipped(source, converter_range, at.size, int(at[0]))
     if not flat_top:
         return
     for extreme, word in ((values.max(), "maximum"), (values.min(), "minimum")):
@@ -77,10 +76,40 @@ def clipping(values: np.ndarray, source: str,
         long_ = np.flatnonzero(lengths >= CLIP_RUN)
         if long_.size and values.max() > values.min():
             i = long_[0]
-            raise DataError(source, f"clipped: flat top of {lengths[i]} samples at the "
-                            f"{word} {extreme:g} ({long_.size} such run(s)); the converter "
-                            f"saturated: lower the gain or widen its range",
-                            sample=int(starts[i]))
+            raise _flat_top(source, int(lengths[i]), word, extreme, long_.size,
+                            int(starts[i]))
+
+
+def _refuse_nan(starts: np.ndarray, lengths: np.ndarray, size: int, n_bad: int, source: str,
+                bridge_upto: int) -> None:
+    """Raise at the first NaN run that is not bridged: longer than ``bridge_upto``, or at
+    an end of the ``size`` samples (nothing to bridge from)."""
+    over = np.flatnonzero((lengths > bridge_upto) | (starts == 0)
+                          | (starts + lengths == size))
+    if over.size:
+        i = over[0]
+        why = "" if not bridge_upto else f" (longer than interpolate_upto = {bridge_upto}, " \
+            "or at an end)"
+        raise DataError(source, f"{lengths[i]} NaN/inf sample(s){why}; {n_bad} in all",
+                        sample=int(starts[i]))
+
+
+def _beyond(values: np.ndarray, converter_range: tuple[float, float]) -> np.ndarray:
+    return (values <= converter_range[0]) | (values >= converter_range[1])
+
+
+def _clipped(source: str, converter_range: tuple[float, float], count: int,
+             first: int) -> DataError:
+    lo, hi = converter_range
+    return DataError(source, f"clipped: {count} sample(s) at the converter range "
+                     f"[{lo:g}, {hi:g}] (field 'range')", sample=first)
+
+
+def _flat_top(source: str, n: int, word: str, extreme: float, runs: int,
+              first: int) -> DataError:
+    return DataError(source, f"clipped: flat top of {n} samples at the {word} {extreme:g} "
+                     f"({runs} such run(s)); the converter saturated: lower the gain or "
+                     f"widen its range", sample=first)
 
 
 def length(n: int, fs: float, source: str, min_duration: float | None) -> None:
@@ -90,3 +119,121 @@ def length(n: int, fs: float, source: str, min_duration: float | None) -> None:
     if min_duration is not None and n / fs < min_duration:
         raise DataError(source, f"too short: {n / fs:.6g} s ({n} samples at {fs:g} Hz); "
                         f"the analysis needs at least {min_duration:.6g} s")
+
+
+class RunTracker:
+    """Runs of True in a boolean sequence fed block by block (runs may span blocks).
+
+    ``feed(mask, offset)`` returns the runs that ended, as arrays of absolute start
+    indices and lengths; :meth:`finish` returns the one still open at the end.
+    """
+
+    def __init__(self) -> None:
+        self.open: tuple[int, int] | None = None
+
+    def feed(self, mask: np.ndarray, offset: int) -> tuple[np.ndarray, np.ndarray]:
+        starts, lengths = _runs(mask)
+        starts = starts + offset
+        if self.open is not None:
+            if mask.size and mask[0]:
+                starts[0], lengths[0] = self.open[0], lengths[0] + self.open[1]
+            else:
+                starts = np.concatenate([[self.open[0]], starts])
+                lengths = np.concatenate([[self.open[1]], lengths])
+            self.open = None
+        if mask.size and mask[-1]:
+            self.open = (int(starts[-1]), int(lengths[-1]))
+            starts, lengths = starts[:-1], lengths[:-1]
+        return starts, lengths
+
+    def finish(self) -> tuple[np.ndarray, np.ndarray]:
+        run, self.open = self.open, None
+        return (np.array([run[0]]), np.array([run[1]])) if run else (np.empty(0, int),
+                                                                    np.empty(0, int))
+
+
+def scan(column: Column, source: str, bridge_upto: int = 0,
+         converter_range: tuple[float, float] | None = None, *, flat_top: bool = True,
+         block: int | None = None) -> Bridged:
+    """:func:`finite` and :func:`clipping` of a column read block by block.
+
+    The same checks and messages, with absolute sample indices; two passes over the
+    column (the flat-top test needs the channel's extremes first).
+
+    Returns
+    -------
+    Bridged
+        The column with its bridged NaN runs filled.
+    """
+    block = BLOCK if block is None else block
+    nan, nan_runs = RunTracker(), []
+    lo_hi, n_bad, n_clip, first_clip = [np.inf, -np.inf], 0, 0, -1
+    for a, b in blocks(column.size, block):
+        v = column.read(a, b)
+        bad = ~np.isfinite(v)
+        n_bad += int(bad.sum())
+        nan_runs.append(nan.feed(bad, a))
+        good = v[~bad]
+        if good.size:
+            lo_hi = [min(lo_hi[0], good.min()), max(lo_hi[1], good.max())]
+        if converter_range is not None:
+            at = np.flatnonzero(_beyond(v, converter_range))
+            n_clip += at.size
+            if at.size and first_clip < 0:
+                first_clip = a + int(at[0])
+    nan_runs.append(nan.finish())
+    starts = np.concatenate([s for s, _ in nan_runs]).astype(np.int64)
+    lengths = np.concatenate([n for _, n in nan_runs]).astype(np.int64)
+    _refuse_nan(starts, lengths, column.size, n_bad, source, bridge_upto)
+    if n_clip:
+        raise _clipped(source, converter_range, n_clip, first_clip)
+    bridged = Bridged(column, starts, lengths)
+    if flat_top and lo_hi[1] > lo_hi[0]:
+        _flat_tops(bridged, source, lo_hi, block)
+    return bridged
+
+
+def _flat_tops(column: Bridged, source: str, lo_hi: list[float], block: int) -> None:
+    """The flat-top part of :func:`clipping`, second pass over the column."""
+    trackers = {"maximum": RunTracker(), "minimum": RunTracker()}
+    extremes = {"maximum": lo_hi[1], "minimum": lo_hi[0]}
+    long_runs: dict[str, list[tuple[int, int]]] = {"maximum": [], "minimum": []}
+    count = dict.fromkeys(trackers, 0)
+
+    def collect(word: str, runs: tuple[np.ndarray, np.ndarray]) -> None:
+        keep = runs[1] >= CLIP_RUN
+        count[word] += int(keep.sum())
+        if keep.any() and not long_runs[word]:
+            k = int(np.flatnonzero(keep)[0])
+            long_runs[word].append((int(runs[0][k]), int(runs[1][k])))
+
+    for a, b in blocks(column.size, block):
+        v = column.read(a, b)
+        for word, tracker in trackers.items():
+            collect(word, tracker.feed(v == extremes[word], a))
+    for word, tracker in trackers.items():
+        collect(word, tracker.finish())
+        if long_runs[word]:
+            start, n = long_runs[word][0]
+            raise _flat_top(source, n, word, extremes[word], count[word], start)
+
+
+class Bridged:
+    """A column whose NaN runs (accepted by :func:`scan`) are filled linearly between
+    their neighbours, as :func:`finite` fills them."""
+
+    def __init__(self, column: Column, starts: np.ndarray, lengths: np.ndarray) -> None:
+        self.column, self.size = column, column.size
+        self.starts, self.lengths = starts, lengths
+
+    def read(self, start: int, stop: int) -> np.ndarray:
+        v = self.column.read(start, stop)
+        first = np.searchsorted(self.starts + self.lengths, start, side="right")
+        last = np.searchsorted(self.starts, stop, side="left")
+        for s, n in zip(self.starts[first:last], self.lengths[first:last], strict=True):
+            ends = [s - 1, s + n]
+            around = [v[e - start] if start <= e < stop else self.column.read(e, e + 1)[0]
+                      for e in ends]
+            idx = np.arange(max(s, start), min(s + n, stop))
+            v[idx - start] = np.interp(idx, ends, around)
+        return v

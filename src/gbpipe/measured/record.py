@@ -4,12 +4,15 @@ to SI, aligned on the common clock and resampled onto the record's uniform grid.
 The order of work puts every cheap check before the expensive ones: the mapping
 (:func:`gbpipe.measured.spec.parse`), then every file's existence and header, every
 channel's name, every unit, and only then the data.
+
+Two ways through: into memory (the default, a :class:`xarray.Dataset`), or — with
+``out`` — block by block into a NetCDF file (:mod:`gbpipe.measured.stream`), for records
+too long to hold in memory.
 """
 
 from __future__ import annotations
 
-import json
-import logging
+import os
 from collections.abc import Mapping
 from contextlib import ExitStack
 from pathlib import Path
@@ -18,68 +21,18 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
-from gbpipe.errors import DataError
-from gbpipe.io import source_files
-from gbpipe.measured import checks, derived
-from gbpipe.measured.channels import Channel, find
-from gbpipe.measured.formats import open_source
-from gbpipe.measured.quantities import to_si
-from gbpipe.measured.spec import RecordSpec, SignalSpec, parse
-from gbpipe.measured.timebase import Piece, intersect, overlap, pieces, resample
+from gbpipe.measured import checks, derived, layout, stream
+from gbpipe.measured.channels import Channel
+from gbpipe.measured.spec import RecordSpec, parse
+from gbpipe.measured.timebase import Piece, overlap, resample
+from gbpipe.measured.writer import open_record, write_dataset
 
 __all__ = ["read"]
 
-log = logging.getLogger(__name__)
-
-#: grid tolerance [samples]: clock fits are exact to ~1e-9 sample
-_TOL = 1e-6
-
-_LONG = {"value": "{name} (measured, {channel})", "angle": "{name}: speed from encoder "
-         "angle {channel}", "tacho": "{name}: tachometer pulse time from {channel}"}
-
-
-def _epochs(channels: dict[str, Channel]) -> tuple[dict[str, float], str]:
-    """Seconds to add to each channel's clock to put it on the common clock, and how the
-    clocks were aligned (an attribute of the record)."""
-    known = {k: c.epoch for k, c in channels.items() if c.epoch is not None}
-    if known and len(known) == len(channels):
-        ref = min(known.values())
-        return ({k: float((e - ref) / np.timedelta64(1, "ns")) * 1e-9
-                 for k, e in known.items()}, "absolute start times of the files")
-    how = "relative: the files' own clocks are taken as one common clock"
-    if known:
-        # Some files know their absolute start, others only relative time: the relative
-        # clocks cannot be placed on the absolute one, so all are taken as relative.
-        lack = ", ".join(k for k in channels if k not in known)
-        how += f" (absolute start times ignored: {lack} have none)"
-        log.warning("record clocks: %s", how)
-    return dict.fromkeys(channels, 0.0), how
-
-
-def _convert(ch: Channel, sig: SignalSpec, where: str) -> tuple[np.ndarray, str]:
-    """Values in SI (scale and offset of the mapping first, then the unit), computed in
-    place: the reader's array is this function's to change, and a second copy of a long
-    record is what bounds the memory."""
-    unit = sig.unit if sig.unit is not None else ch.unit
-    if unit is None:
-        raise DataError(f"{where}: field 'unit'", "neither the mapping nor the file gives "
-                        "a unit: add unit: to the signal")
-    factor, offset, si = to_si(unit, where)
-    v = ch.values
-    for mul, add in ((sig.scale, sig.offset), (factor, offset)):
-        if mul != 1.0:
-            v *= mul
-        if add != 0.0:
-            v += add
-    return v, si
-
-
-def _source_label(rec: RecordSpec, sig: SignalSpec, base: Path) -> str:
-    return f"{base / rec.files[sig.file].path}: channel '{sig.channel}'"
-
 
 def read(spec: Mapping[str, Any], base_dir: str | Path = ".", *, name: str = "record",
-         min_duration: float | None = None) -> xr.Dataset:
+         min_duration: float | None = None, out: str | os.PathLike | None = None,
+         provenance: Mapping[str, Any] | None = None) -> xr.Dataset:
     """Read one entry of the config's ``measured:`` mapping into a record Dataset.
 
     Parameters
@@ -93,6 +46,15 @@ def read(spec: Mapping[str, Any], base_dir: str | Path = ".", *, name: str = "re
     min_duration : float, optional
         Shortest acceptable record [s] (e.g. the TSA cycles or identification horizons
         the analysis needs).
+    out : path, optional
+        Write the record to this NetCDF file, converted and resampled block by block in
+        bounded memory (long records; see ``docs/measured.md``, "Long records"), and
+        return the file opened lazily. The file is written atomically: a failure leaves
+        no file (and an existing one untouched).
+    provenance : mapping, optional
+        With ``out``: keyword arguments of :func:`gbpipe.io.write` for the provenance
+        it stores — ``stage`` (default ``"measured"``), ``config`` (its SHA-256 is
+        stored), ``wildcards``, ``sources`` (added to the record's files), ``title``.
 
     Returns
     -------
@@ -104,7 +66,8 @@ def read(spec: Mapping[str, Any], base_dir: str | Path = ".", *, name: str = "re
         ``gaps: split``, a ``segment`` coordinate numbers the gap-free pieces and the
         time axis skips the gaps. Attributes: ``record_start`` (absolute, ISO 8601, when
         the files know it), ``record_start_s`` (on the common clock), ``sample_rate``,
-        ``source_files`` (JSON: path, bytes, sha256), ``signal_sources`` (JSON).
+        ``source_files`` (JSON: path, bytes, sha256), ``signal_sources`` (JSON); with
+        ``out``, also the provenance of :func:`gbpipe.io.write`.
 
     Raises
     ------
@@ -115,131 +78,67 @@ def read(spec: Mapping[str, Any], base_dir: str | Path = ".", *, name: str = "re
     """
     rec = parse(spec, name)
     base = Path(base_dir)
+    if out is None:
+        return _in_memory(rec, base, min_duration)
+    if stream.streamable(rec):
+        stream.write_record(rec, base, out, min_duration=min_duration,
+                            provenance=provenance)
+    else:  # documented: bridging time gaps inserts samples, done in memory
+        write_dataset(_in_memory(rec, base, min_duration), out, provenance,
+                      [base / f.path for f in rec.files.values()])
+    return open_record(out)
+
+
+def _in_memory(rec: RecordSpec, base: Path, min_duration: float | None) -> xr.Dataset:
     fs = rec.sample_rate
     raw = _read_channels(rec, base)
-    shift, clock = _epochs(raw)
+    shift, clock = layout.epochs(raw)
     units: dict[str, str] = {}
-    converted = {sname: _to_pieces(rec, rec.signals[sname], ch, base, shift[sname], units)
+    converted = {sname: layout.to_pieces(rec, rec.signals[sname], ch, base, shift[sname], units)
                  for sname, ch in raw.items()}
-    start, _ = overlap({_source_label(rec, rec.signals[n], base): (p[0].t0, p[-1].end)
+    start, _ = overlap({layout.source_label(rec, rec.signals[n], base): (p[0].t0, p[-1].end)
                         for n, p in converted.items()})
-    grids = _grids(converted, start, fs)
-    n_total = sum(n for _, n in grids)
-    checks.length(n_total, fs, f"record '{name}'", min_duration)
-    time = np.concatenate([(m0 + np.arange(n)) / fs for m0, n in grids])
-    ds = xr.Dataset(coords={"time": ("time", time, {
-        "units": "s", "long_name": "time from record start"})})
+    segs = layout.grids({n: [(q.t0, q.end) for q in p] for n, p in converted.items()}, start, fs)
+    n_total = sum(n for _, n in segs)
+    checks.length(n_total, fs, f"record '{rec.name}'", min_duration)
+    time = np.concatenate([(m0 + np.arange(n)) / fs for m0, n in segs])
+    ds = xr.Dataset(coords={"time": layout.time_coord(time)})
     if rec.gaps == "split":
-        seg = np.concatenate([np.full(n, k) for k, (_, n) in enumerate(grids)])
+        seg = np.concatenate([np.full(n, k) for k, (_, n) in enumerate(segs)])
         ds = ds.assign_coords(segment=("time", seg, {
             "units": "1", "long_name": "gap-free segment number"}))
-    tachos = [s for s in rec.signals.values() if s.quantity == "tacho"]
+    pulses = {}
     for sname, plist in converted.items():
         sig = rec.signals[sname]
-        where = _source_label(rec, sig, base)
-        long_name = _LONG[sig.quantity].format(name=sname, channel=sig.channel)
         if sig.quantity == "tacho":
-            pt = np.concatenate([derived.pulse_times(p.values, p.t0, p.dt, sig, where)
-                                 for p in plist])
-            pt = pt[(pt >= start) & (pt <= start + time[-1] + _TOL / fs)] - start
-            dim = "pulse" if len(tachos) == 1 else f"{sname}_pulse"
-            ds[sname] = (dim, pt, {"units": "s", "long_name": long_name,
-                                   "pulses_per_rev": sig.pulses_per_rev})
+            pulses[sname] = layout.pulse_times(rec, sig, plist, base, start, time[-1], fs)
             continue
         unit = "rad/s" if sig.quantity == "angle" else units[sname]
-        ds[sname] = ("time", _on_grid(plist, grids, start, fs, sig.quantity == "angle"),
-                     {"units": unit, "long_name": long_name})
-    if len(tachos) == 1:
-        sig = tachos[0]
-        if sig.name != "pulse_time":
-            ds["pulse_time"] = ("pulse", ds[sig.name].values, {
-                "units": "s", "long_name": f"tachometer pulse time ({sig.name})"})
-        ds.attrs["pulses_per_rev"] = int(sig.pulses_per_rev)
-        ds = ds.assign_coords(pulse=("pulse", np.arange(ds.sizes["pulse"]), {
-            "units": "1", "long_name": "tachometer pulse number"}))
-    epochs = [c.epoch for c in raw.values() if c.epoch is not None]
-    if epochs and len(epochs) == len(raw):
-        ds.attrs["record_start"] = str(min(epochs) + np.timedelta64(int(round(start * 1e9)),
-                                                                      "ns"))
-    ds.attrs.update({
-        "record": name, "record_start_s": start, "clock_alignment": clock, "sample_rate": fs,
-        "gaps": rec.gaps if rec.gaps != "interpolate" else
-        f"interpolate_upto {rec.interpolate_upto}",
-        "source_files": json.dumps(source_files(base / f.path for f in rec.files.values())),
-        "signal_sources": json.dumps({s.name: {"file": rec.files[s.file].path,
-                                               "channel": s.channel, "quantity": s.quantity}
-                                      for s in rec.signals.values()}),
-    })
+        ds[sname] = ("time", _on_grid(plist, segs, start, fs, sig.quantity == "angle"),
+                     {"units": unit, "long_name": layout.long_name(sig)})
+    ds = layout.add_tachos(ds, rec, pulses)
+    ds.attrs.update(layout.record_attrs(rec, base, raw, start, clock))
     return ds
 
 
 def _read_channels(rec: RecordSpec, base: Path) -> dict[str, Channel]:
     """Open every file, check every channel name and unit, then read the channels."""
     with ExitStack() as stack:
-        sources = {}
-        for key, fspec in rec.files.items():
-            src = open_source(fspec, base)
-            stack.callback(src.close)
-            sources[key] = src
-        for sig in rec.signals.values():  # every name and unit before any data
-            find(sig.channel, sources[sig.file].names(), str(base / rec.files[sig.file].path))
-            if sig.unit is not None and sig.quantity != "tacho":
-                where = _source_label(rec, sig, base)
-                _check_angle(sig, to_si(sig.unit, where)[2], where)
+        sources = layout.open_checked(rec, base, stack)
         for key, src in sources.items():
             src.prefetch([s.channel for s in rec.signals.values() if s.file == key])
         return {s.name: sources[s.file].read(s.channel) for s in rec.signals.values()}
 
 
-def _check_angle(sig: SignalSpec, si_unit: str, where: str) -> None:
-    if sig.quantity == "angle" and si_unit != "rad":
-        raise DataError(f"{where}: field 'unit'", f"quantity: angle needs an angle unit "
-                        f"(deg, rad, rev); got {sig.unit or si_unit!r}")
-
-
-def _to_pieces(rec: RecordSpec, sig: SignalSpec, ch: Channel, base: Path, shift: float,
-               units: dict[str, str]) -> list[Piece]:
-    """Checked, SI-converted, gap-handled pieces of one channel on the common clock."""
-    where = _source_label(rec, sig, base)
-    if ch.values.size == 0:
-        raise DataError(where, "the channel holds no samples")
-    values = checks.finite(ch.values, where, rec.interpolate_upto)
-    if sig.quantity != "tacho":
-        # An encoder angle legitimately stays at its maximum when the shaft stops:
-        # only the converter range can tell it clipped.
-        checks.clipping(values, where, sig.range, flat_top=sig.quantity != "angle")
-        values, units[sig.name] = _convert(Channel(values, ch.unit), sig, where)
-        _check_angle(sig, units[sig.name], where)
-    time = ch.time if ch.time is None or shift == 0.0 else ch.time + shift
-    return pieces(values, where, t0=None if ch.t0 is None else ch.t0 + shift, dt=ch.dt,
-                  time=time, gaps=rec.gaps, interpolate_upto=rec.interpolate_upto)
-
-
-def _grids(converted: dict[str, list[Piece]], start: float,
-           fs: float) -> list[tuple[int, int]]:
-    """(first grid index, length) of each gap-free segment common to all channels."""
-    end = min(p[-1].end for p in converted.values())
-    segs = [(start, end)]
-    for plist in converted.values():
-        segs = intersect(segs, [(q.t0, q.end) for q in plist])
-    grids = []
-    for a, b in segs:
-        m0 = int(np.ceil((a - start) * fs - _TOL))
-        m1 = int(np.floor((b - start) * fs + _TOL))
-        if m1 >= m0:
-            grids.append((m0, m1 - m0 + 1))
-    return grids
-
-
-def _on_grid(plist: list[Piece], grids: list[tuple[int, int]], start: float, fs: float,
+def _on_grid(plist: list[Piece], segs: list[tuple[int, int]], start: float, fs: float,
              angle: bool) -> np.ndarray:
     """One channel resampled onto the record grid, segment by segment."""
-    out = np.empty(sum(n for _, n in grids)) if len(grids) > 1 else None
+    out = np.empty(sum(n for _, n in segs)) if len(segs) > 1 else None
     filled = 0
-    for m0, n in grids:
+    windows = [(p.t0, p.end) for p in plist]
+    for m0, n in segs:
         t_a = start + m0 / fs
-        piece = next(p for p in plist if p.t0 - _TOL / fs <= t_a
-                     and t_a + (n - 1) / fs <= p.end + _TOL / fs)
+        piece = plist[layout.piece_at(windows, t_a, n, fs)]
         if angle:
             piece = Piece(derived.speed_from_angle(piece.values, piece.dt, fs), piece.t0,
                           piece.dt)

@@ -6,41 +6,29 @@ on the common clock. :func:`pieces` finds, on an explicit time channel, backward
 clock), gaps (refused, split at, or bridged when at most ``interpolate_upto`` samples are
 missing), and fits a uniform clock through the stamps of each run, so logging jitter
 of up to :data:`JITTER` sample does not become signal noise. :func:`overlap` intersects the
-channels' windows; :func:`resample` puts a piece on the record's uniform grid.
-
-Resampling is never nearest-sample: when the two rates have a small rational ratio
-``up/down`` the signal goes through :func:`scipy.signal.resample_poly` (a polyphase FIR
-with its own anti-aliasing low-pass, here a Kaiser window of β = 8.6: -80 dB stop band,
-gain flat to 1e-5 up to 0.6 of the output Nyquist frequency, 1e-2 at 0.8) and, if the
-grids are offset by a fraction of a sample, through a band-limited (Kaiser-windowed
-sinc) fractional delay; otherwise the windowed-sinc interpolator is used directly, with
-its cut-off lowered to the lower of the two Nyquist frequencies. The first and last
-:data:`HALF_TAPS` samples of a piece are within one filter length of its edge and carry
-the usual edge transient.
+channels' windows; :func:`resample` (from :mod:`gbpipe.measured.resample`, where the
+anti-aliased resampling is described) puts a piece on the record's uniform grid.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
-from fractions import Fraction
 
 import numpy as np
-from scipy.signal import resample_poly
 
 from gbpipe.errors import DataError
+from gbpipe.measured import checks
+from gbpipe.measured.columns import Column, blocks
+from gbpipe.measured.resample import HALF_TAPS, resample, sinc_interpolate
 
-__all__ = ["Piece", "pieces", "overlap", "intersect", "resample", "sinc_interpolate",
-           "HALF_TAPS", "GAP_FACTOR", "JITTER"]
+__all__ = ["Piece", "pieces", "scan_clock", "overlap", "intersect", "resample",
+           "sinc_interpolate", "HALF_TAPS", "GAP_FACTOR", "JITTER"]
 
-#: half length of the windowed-sinc kernel [samples]
-HALF_TAPS = 16
 #: largest deviation of a time stamp from the fitted uniform clock [sample intervals]
 JITTER = 0.35
 #: an interval longer than this many nominal sample intervals is a gap (above the
 #: 1 + 2 JITTER that jitter alone can produce)
 GAP_FACTOR = 1.75
-_KAISER_BETA = 8.6  # -80 dB side lobes
-_BLOCK = 1 << 16    # output samples per interpolation block (bounded memory)
 
 
 @dataclass
@@ -71,12 +59,30 @@ def _fit_clock(t: np.ndarray, source: str, first: int) -> tuple[float, float]:
     kc += a
     dev = np.abs(t - kc)
     worst = int(np.argmax(dev))
-    if dev[worst] > JITTER * b:
-        raise DataError(source, f"sample times deviate from a uniform clock by "
-                        f"{dev[worst] / b:.2f} sample intervals (irregular sampling, or a "
-                        f"short gap); gbpipe accepts jitter up to {JITTER}",
-                        sample=first + worst)
+    _check_jitter(source, float(dev[worst]), b, first + worst)
     return float(a), float(b)
+
+
+def _check_jitter(source: str, dev: float, dt: float, sample: int) -> None:
+    if dev > JITTER * dt:
+        raise DataError(source, f"sample times deviate from a uniform clock by "
+                        f"{dev / dt:.2f} sample intervals (irregular sampling, or a short "
+                        f"gap); gbpipe accepts jitter up to {JITTER}", sample=sample)
+
+
+def _backward(source: str, step: float, i: int, t_i: float) -> DataError:
+    what = ("time repeats (duplicate stamp)" if step == 0 else
+            f"time jumps backwards by {-step:.6g} s (a clock reset, or unsorted rows: "
+            f"time is not monotonic)")
+    return DataError(f"{source} (time)", f"{what} between samples {i} and {i + 1}, at "
+                     f"t = {t_i:.6g} s; split the file at the reset", sample=i + 1)
+
+
+def _gap(source: str, step: float, dt_nom: float, missing: int, allow: str, i: int,
+         t_i: float, count: int) -> DataError:
+    return DataError(f"{source} (time)", f"gap of {step - dt_nom:.6g} s ({missing} missing "
+                     f"samples{allow}) after t = {t_i:.6g} s; {count} gap(s) in all. Set "
+                     f"gaps: split or {{interpolate_upto: N}} to accept them", sample=i + 1)
 
 
 def pieces(values: np.ndarray, source: str, *, t0: float | None = None,
@@ -116,11 +122,7 @@ def pieces(values: np.ndarray, source: str, *, t0: float | None = None,
     back = np.flatnonzero(d <= 0)
     if back.size:
         i = int(back[0])
-        what = ("time repeats (duplicate stamp)" if d[i] == 0 else
-                f"time jumps backwards by {-d[i]:.6g} s (a clock reset, or unsorted rows: "
-                f"time is not monotonic)")
-        raise DataError(f"{source} (time)", f"{what} between samples {i} and {i + 1}, at "
-                        f"t = {t[i]:.6g} s; split the file at the reset", sample=i + 1)
+        raise _backward(source, float(d[i]), i, float(t[i]))
     dt_nom = float(np.median(d))
     gap_at = np.flatnonzero(d > GAP_FACTOR * dt_nom)
     missing = np.rint(d[gap_at] / dt_nom).astype(int) - 1
@@ -130,10 +132,8 @@ def pieces(values: np.ndarray, source: str, *, t0: float | None = None,
         i = int(gap_at[j])
         allow = ("" if gaps == "refuse" else
                  f", more than interpolate_upto = {interpolate_upto}")
-        raise DataError(f"{source} (time)", f"gap of {d[i] - dt_nom:.6g} s "
-                        f"({missing[j]} missing samples{allow}) after t = {t[i]:.6g} s; "
-                        f"{len(gap_at)} gap(s) in all. Set gaps: split or "
-                        f"{{interpolate_upto: N}} to accept them", sample=i + 1)
+        raise _gap(source, float(d[i]), dt_nom, int(missing[j]), allow, i, float(t[i]),
+                   len(gap_at))
     if gaps == "interpolate" and gap_at.size:
         # Insert the missing stamps on the nominal clock and bridge the values linearly.
         k = np.concatenate([[0], np.cumsum(np.rint(d / dt_nom).astype(int))])
@@ -160,7 +160,8 @@ def overlap(windows: dict[str, tuple[float, float]], unit: str = "s") -> tuple[f
     start = max(w[0] for w in windows.values())
     end = min(w[1] for w in windows.values())
     if end <= start:
-        listing = "; ".join(f"{k}: [{round(a, 9):.6g}, {round(b, 9):.6g}] {unit}"
+        # + 0.0: a clock fitted to -1e-17 s prints as 0, not -0
+        listing = "; ".join(f"{k}: [{round(a, 9) + 0.0:.6g}, {round(b, 9) + 0.0:.6g}] {unit}"
                             for k, (a, b) in windows.items())
         raise DataError("record", f"the files do not overlap in time (latest start "
                         f"{start:.6g} {unit} is after earliest end {end:.6g} {unit}). "
@@ -180,49 +181,105 @@ def intersect(a: list[tuple[float, float]],
     return sorted(out)
 
 
-def sinc_interpolate(x: np.ndarray, pos: np.ndarray, cutoff: float = 1.0) -> np.ndarray:
-    """Band-limited interpolation of ``x`` at fractional sample positions ``pos``.
+def scan_clock(time: Column, source: str, *, shift: float = 0.0, gaps: str = "refuse",
+               block: int | None = None) -> list[tuple[int, int, float, float]]:
+    """:func:`pieces` for a time channel read block by block (long records).
 
-    A Kaiser-windowed sinc of :data:`HALF_TAPS` taps each side, low-pass at ``cutoff``
-    times the Nyquist frequency of ``x`` (``cutoff < 1`` when decimating, so the result
-    is anti-aliased), weights renormalised to unit sum so a constant stays exact.
+    The same checks and messages with absolute sample indices, in two passes: stamps,
+    steps, gaps and the least-squares sums of each run's clock; then each run's jitter
+    about its fitted clock. ``gaps`` is ``"refuse"`` or ``"split"`` (bridging gaps needs
+    the channel in memory: :func:`pieces`). The nominal interval that defines a gap is
+    the median interval of the first block (of the whole channel in :func:`pieces`).
+
+    Parameters
+    ----------
+    time : Column
+        Sample times [s] on the file's clock.
+    source : str
+        ``file: channel`` for error messages.
+    shift : float
+        Seconds added to put the times on the common clock.
+
+    Returns
+    -------
+    list of (first, stop, t0, dt)
+        Sample index range ``[first, stop)`` of each gap-free run and its fitted uniform
+        clock: sample ``first + k`` at ``t0 + k dt`` [s] on the common clock.
     """
-    x = np.asarray(x, dtype=float)
-    pos = np.asarray(pos, dtype=float)
-    half = int(np.ceil(HALF_TAPS / min(cutoff, 1.0)))
-    offs = np.arange(-half + 1, half + 1)
-    out = np.empty(pos.size)
-    for s in range(0, pos.size, _BLOCK):
-        p = pos[s:s + _BLOCK]
-        i0 = np.floor(p).astype(np.int64)
-        j = i0[:, None] + offs[None, :]
-        u = p[:, None] - j
-        r = np.clip(1.0 - (u / half) ** 2, 0.0, None)
-        w = cutoff * np.sinc(cutoff * u) * np.i0(_KAISER_BETA * np.sqrt(r))
-        w[(j < 0) | (j >= x.size)] = 0.0
-        out[s:s + _BLOCK] = (w * x[np.clip(j, 0, x.size - 1)]).sum(1) / w.sum(1)
-    return out
+    block = checks.BLOCK if block is None else block  # read now: tests make it small
+    n = time.size
+    dt_nom = None
+    prev = None
+    bad = back = None
+    gap_at: list[int] = []
+    gap_step: list[float] = []
+    sums = [[0, 0.0, 0.0, None]]  # per run: first index, sum t', sum k t', t_ref
+    for a, b in blocks(n, block):
+        t = time.read(a, b) + shift
+        nonfinite = np.flatnonzero(~np.isfinite(t))
+        if nonfinite.size:
+            bad = a + int(nonfinite[0])
+            break
+        tt = t if prev is None else np.concatenate([[prev], t])
+        d = np.diff(tt)
+        base = a if prev is None else a - 1  # tt[i] is sample base + i
+        if dt_nom is None:
+            dt_nom = float(np.median(d)) if d.size else 0.0
+        down = np.flatnonzero(d <= 0)
+        if down.size and back is None:
+            i = int(down[0])
+            back = (float(d[i]), base + i, float(tt[i]))
+        new = np.flatnonzero(d > GAP_FACTOR * dt_nom)
+        gap_at += (base + new).tolist()
+        gap_step += d[new].tolist()
+        _accumulate(sums, t, a, (base + new + 1).tolist())
+        prev = t[-1]
+    if bad is not None:
+        raise DataError(f"{source} (time)", "time stamp is NaN or inf", sample=bad)
+    if back is not None:
+        raise _backward(source, *back)
+    if gap_at and gaps != "split":
+        i = gap_at[0]
+        t_i = float(time.read(i, i + 1)[0]) + shift
+        raise _gap(source, gap_step[0], dt_nom, int(np.rint(gap_step[0] / dt_nom)) - 1, "",
+                   i, t_i, len(gap_at))
+    bounds = [0, *(g + 1 for g in gap_at), n]
+    runs = []
+    for (first, s_t, s_kt, t_ref), stop in zip(sums, bounds[1:], strict=True):
+        m = stop - first
+        if m < 2:
+            raise DataError(f"{source} (time)", "a run of fewer than 2 samples between gaps",
+                            sample=first)
+        # the closed form of _fit_clock, from sums of the stamps less the first one
+        slope = (s_kt - 0.5 * (m - 1) * s_t) / (m * (m * m - 1) / 12.0)
+        runs.append((first, stop, t_ref + s_t / m - slope * 0.5 * (m - 1), slope))
+    for first, stop, t0, dt in runs:
+        worst, at = -1.0, first
+        for a, b in blocks(stop - first, block):
+            k = np.arange(a, b, dtype=float)
+            k *= dt
+            k += t0
+            dev = np.abs(time.read(first + a, first + b) + shift - k)
+            i = int(np.argmax(dev))
+            if dev[i] > worst:
+                worst, at = float(dev[i]), first + a + i
+        _check_jitter(f"{source} (time)", worst, dt, at)
+    return runs
 
 
-def resample(piece: Piece, start: float, fs: float, n: int) -> np.ndarray:
-    """Values of ``piece`` at ``start + m / fs`` for ``m = 0 … n-1`` (inside the piece).
-
-    Polyphase when ``fs`` and the piece's rate have a rational ratio with terms ≤ 1000,
-    then a band-limited fractional delay if the grids are offset; band-limited
-    interpolation otherwise. Equal rates on aligned grids give the samples themselves (a
-    view of ``piece.values``: no copy of a long record).
-    """
-    src_fs = 1.0 / piece.dt
-    ratio = fs / src_fs
-    frac = Fraction(ratio).limit_denominator(1000)
-    if abs(float(frac) - ratio) <= 1e-9 * ratio:
-        up, down = frac.numerator, frac.denominator
-        y = piece.values if up == down == 1 else resample_poly(
-            piece.values, up, down, window=("kaiser", _KAISER_BETA), padtype="line")
-        pos = (start - piece.t0) * fs + np.arange(n)
-        k0 = int(np.rint(pos[0]))
-        if abs(pos[0] - k0) < 1e-6 and 0 <= k0 and k0 + n <= y.size:
-            return y[k0:k0 + n]
-        return sinc_interpolate(y, pos)
-    pos = (start + np.arange(n) / fs - piece.t0) * src_fs
-    return sinc_interpolate(piece.values, pos, cutoff=min(1.0, ratio))
+def _accumulate(sums: list[list], t: np.ndarray, a: int, starts: list[int]) -> None:
+    """Add the stamps ``t`` (samples ``a …``) to the least-squares sums of their runs
+    (``[first, sum t', sum k t', t_ref]`` with ``t' = t - t_ref``, ``k`` from the run's
+    first sample); ``starts`` are the first samples of the runs that begin in this block."""
+    edges = [a, *starts, a + t.size]
+    for idx, (lo, hi) in enumerate(zip(edges[:-1], edges[1:], strict=True)):
+        if idx > 0:
+            sums.append([lo, 0.0, 0.0, None])
+        if hi == lo:
+            continue
+        run = sums[-1]
+        if run[3] is None:
+            run[3] = float(t[lo - a])
+        seg = t[lo - a:hi - a] - run[3]
+        run[1] += float(seg.sum())
+        run[2] += float(np.arange(lo - run[0], hi - run[0], dtype=float) @ seg)

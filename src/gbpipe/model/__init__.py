@@ -17,6 +17,13 @@ gearbox_mechanism, bench_mechanism, Mechanism, Body, Spring
     The mechanisms behind the state spaces.
 model_datasets(cfg, truth_cfg)
     The gearbox, bench and truth datasets of the model stage (``results/model/*.nc``).
+Pairing, pairing_frf
+    Batched FRFs of the identification pairings (a fitting loop's model evaluation).
+FrfData, fit_parameters, FitResult
+    Fit config parameters (key paths such as ``"gearbox.stiffness[1]"``) to FRFs, with
+    95 % intervals and what the data cannot separate (docs/fit.md).
+analyse, design_outputs, Identifiability
+    Identifiability from the Jacobian; which added output would separate the parameters.
 
 ``control.StateSpace`` forms: ``from gbpipe.model.control_models import gearbox, bench``.
 FRFs and modes of any state space: :func:`gbpipe.lti.frf`, :func:`gbpipe.lti.modes`.
@@ -27,6 +34,10 @@ from __future__ import annotations
 
 from gbpipe.model.assembly import bench_ss, gearbox_ss
 from gbpipe.model.drivetrain import bench_mechanism, gearbox_mechanism
+from gbpipe.model.fit import FitResult, fit_parameters
+from gbpipe.model.frf import Pairing, pairing_frf
+from gbpipe.model.frf_data import FrfData, sigma_from_bounds, sigma_from_coherence
+from gbpipe.model.identifiability import Identifiability, analyse, design_outputs
 from gbpipe.model.mechanics import Body, Mechanism, Spring
 from gbpipe.model.stability import check_stability
 from gbpipe.model.stage import model_datasets
@@ -35,5 +46,7 @@ from gbpipe.model.truth import TORQUES, true_modes, truth_dataset, truth_model
 __all__ = [
     "gearbox_ss", "bench_ss", "check_stability", "truth_model", "true_modes",
     "truth_dataset", "TORQUES", "Mechanism", "Body", "Spring", "gearbox_mechanism",
-    "bench_mechanism", "model_datasets",
+    "bench_mechanism", "model_datasets", "Pairing", "pairing_frf", "FrfData",
+    "sigma_from_coherence", "sigma_from_bounds", "fit_parameters", "FitResult",
+    "Identifiability", "analyse", "design_outputs",
 ]

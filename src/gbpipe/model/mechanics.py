@@ -28,6 +28,9 @@ __all__ = ["Body", "Spring", "Mechanism"]
 class Body:
     """A rotating body with a physical angle.
 
+    Its angle is an independent coordinate of the :class:`Mechanism`, unless a gear mesh
+    constraint expresses it through the others.
+
     Attributes
     ----------
     name : str

@@ -2,13 +2,16 @@
 
 Pure numerics on input/output arrays of shape (samples,) or (samples, channels), built on
 numpy, scipy and the LTI core :mod:`gbpipe.lti`. Memory is O(N) in the record length: the
-block-Hankel data matrix is never formed; its triangular factor is accumulated in chunks.
+block-Hankel data matrix is never formed; its Gram matrix comes from lagged correlations
+(or its triangular factor is accumulated in chunks), and the ``B, D`` regression of
+MOESP/N4SID keeps only the Gram matrix of its regressors.
 
 Modules, one concept each (``docs/architecture.md``, "Package map"):
 
 * :mod:`.method_pbsid`, :mod:`.method_moesp`, :mod:`.method_n4sid`: the three methods (named
   so that no module hides its function); :mod:`.open_loop` holds
-  the steps MOESP and N4SID share;
+  the steps and the signature MOESP and N4SID share; :mod:`.input_matrices`: their ``B, D``
+  for the estimated ``A, C``;
 * :mod:`.subspace_model`: the result, :class:`SubspaceModel` (its deterministic part is a
   :class:`gbpipe.lti.NamedSS`);
 * :mod:`.checks`: argument checks and the validated, channel-scaled record;
@@ -25,6 +28,15 @@ from gbpipe.sysid.excitation import InputRank, input_hankel_rank
 from gbpipe.sysid.method_moesp import moesp
 from gbpipe.sysid.method_n4sid import n4sid
 from gbpipe.sysid.method_pbsid import pbsid
+from gbpipe.sysid.nonparametric import (
+    CoherentBand,
+    NonparametricFRF,
+    coherent_band,
+    equivalent_averages,
+    welch_frf,
+)
 from gbpipe.sysid.subspace_model import SubspaceModel
 
-__all__ = ["pbsid", "moesp", "n4sid", "SubspaceModel", "InputRank", "input_hankel_rank"]
+__all__ = ["pbsid", "moesp", "n4sid", "SubspaceModel", "InputRank", "input_hankel_rank",
+           "welch_frf", "NonparametricFRF", "coherent_band", "CoherentBand",
+           "equivalent_averages"]

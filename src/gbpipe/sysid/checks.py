@@ -184,12 +184,17 @@ def prepare(
             f"record too short: {n} samples, but {window_desc} need at least {min_samples}; "
             "use a longer record or smaller windows",
         )
-    check_finite(ua, "u")
-    check_finite(ya, "y")
     # Channel scaling: each channel divided by its RMS value, so that badly scaled units
-    # (e.g. N*m against rad/s) do not steer the SVD and the rank decisions.
-    u_scale = np.sqrt(np.mean(ua * ua, axis=0))
-    y_scale = np.sqrt(np.mean(ya * ya, axis=0))
+    # (e.g. N*m against rad/s) do not steer the SVD and the rank decisions. A NaN or inf
+    # sample makes its channel's sum of squares non-finite, so the sample-by-sample search
+    # of check_finite runs only then (a finite record is read once, not three times).
+    sums = []
+    for name, arr in (("u", ua), ("y", ya)):
+        ss = np.einsum("ij,ij->j", arr, arr)
+        if not np.all(np.isfinite(ss)):
+            check_finite(arr, name)
+        sums.append(ss)
+    u_scale, y_scale = (np.sqrt(ss / n) for ss in sums)
     for name, sc in (("u", u_scale), ("y", y_scale)):
         zero = np.flatnonzero(sc == 0.0)
         if zero.size:

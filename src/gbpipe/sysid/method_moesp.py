@@ -1,26 +1,17 @@
 """PO-MOESP (past-output MOESP), Verhaegen & Verdult, "Filtering and System Identification",
-2007, ch. 9; the shared steps are in :mod:`gbpipe.sysid.open_loop`."""
+2007, ch. 9; the shared steps and the signature are in :mod:`gbpipe.sysid.open_loop`."""
 
 from __future__ import annotations
 
-from gbpipe.sysid.open_loop import identify_open_loop
-from gbpipe.sysid.subspace_model import SubspaceModel
+from gbpipe.sysid.open_loop import open_loop_method
 
 __all__ = ["moesp"]
 
-
-def moesp(
-    u: object,
-    y: object,
-    order: int | str,
-    horizon: int,
-    dt: float = 1.0,
-    *,
-    past: int | None = None,
-    feedthrough: bool = False,
-    max_order: int | None = None,
-) -> SubspaceModel:
+moesp = open_loop_method(
+    "moesp",
     """Identify a state-space model with PO-MOESP (past-output MOESP).
+
+    ``moesp(u, y, order, horizon, dt=1.0, *, past=None, feedthrough=False, max_order=None)``
 
     The SVD is taken of ``Y_f Pi_Uf_perp Z_p'`` (the LQ block ``L32``): future outputs with the
     future inputs projected out, correlated with the past data (instrumental variable).
@@ -58,5 +49,6 @@ def moesp(
         ``past < horizon`` or an order larger than the horizon allows.
     ExcitationError
         The input is not persistently exciting for the order (:mod:`.excitation`).
-    """
-    return identify_open_loop(u, y, order, horizon, dt, past, feedthrough, max_order, "moesp")
+    """,
+    __name__,
+)

@@ -9,27 +9,19 @@ bias does not vanish with more data.
 
 from __future__ import annotations
 
-from gbpipe.sysid.open_loop import identify_open_loop
-from gbpipe.sysid.subspace_model import SubspaceModel
+from gbpipe.sysid.open_loop import open_loop_method
 
 __all__ = ["n4sid"]
 
-
-def n4sid(
-    u: object,
-    y: object,
-    order: int | str,
-    horizon: int,
-    dt: float = 1.0,
-    *,
-    past: int | None = None,
-    feedthrough: bool = False,
-    max_order: int | None = None,
-) -> SubspaceModel:
+n4sid = open_loop_method(
+    "n4sid",
     """Identify a state-space model with N4SID (oblique projection, shift invariance).
+
+    ``n4sid(u, y, order, horizon, dt=1.0, *, past=None, feedthrough=False, max_order=None)``
 
     Same arguments, result and errors as :func:`gbpipe.sysid.moesp` (``past`` is the past
     window in samples, ``>= horizon``); the two methods differ only in the weighting of the
     SVD (module docstrings).
-    """
-    return identify_open_loop(u, y, order, horizon, dt, past, feedthrough, max_order, "n4sid")
+    """,
+    __name__,
+)

@@ -8,9 +8,10 @@ differ only in the weighting of that SVD (see :func:`gbpipe.sysid.n4sid`). Then
 
 * ``C`` = first block row of ``Gamma_f``, ``A`` from its shift invariance
   ``Gamma_f[:-l] A = Gamma_f[l:]`` (least squares);
-* ``B, D`` from ``Gamma_perp' Psi_u = Gamma_perp' H_f(B, D)``, linear in ``B, D``, where
-  ``Psi_u`` is the regression coefficient of ``Y_f`` on ``U_f`` and ``H_f`` the block-Toeplitz
-  matrix of Markov parameters. No state sequence enters, so the estimates are consistent for
+* ``B, D`` (:mod:`gbpipe.sysid.input_matrices`) by least squares over the whole record with
+  ``A, C`` fixed, or, for an unstable ``A``, from ``Gamma_perp' Psi_u = Gamma_perp' H_f(B, D)``
+  (``Psi_u`` the regression coefficient of ``Y_f`` on ``U_f``, ``H_f`` the block-Toeplitz
+  matrix of Markov parameters). No state sequence enters, so the estimates are consistent for
   any finite horizon in open loop: they keep improving with more data.
 * ``K`` and the innovation covariance from the residual covariances of the estimated state
   sequence and the Riccati equation (stable ``A - K C`` by construction).
@@ -18,10 +19,10 @@ differ only in the weighting of that SVD (see :func:`gbpipe.sysid.n4sid`). Then
 
 from __future__ import annotations
 
-import numpy as np
-import scipy.linalg as sla
+from collections.abc import Callable
 
-from gbpipe.lti import dlsim
+import numpy as np
+
 from gbpipe.sysid.checks import (
     as_2d,
     check_dt,
@@ -32,87 +33,56 @@ from gbpipe.sysid.checks import (
 )
 from gbpipe.sysid.excitation import excitation_limit
 from gbpipe.sysid.hankel import hankel_gram, lstsq_r, window_r_factor
+from gbpipe.sysid.input_matrices import bd_gamma_perp, bd_least_squares
 from gbpipe.sysid.kalman import kalman_gain, stable_predictor_gain
 from gbpipe.sysid.order import check_order_rank, select_order
-from gbpipe.sysid.subspace_model import SubspaceModel, free_response, from_scaled
+from gbpipe.sysid.subspace_model import SubspaceModel, from_scaled
 
-__all__ = ["identify_open_loop"]
-
-
-def _observability(a: np.ndarray, c: np.ndarray, rows: int) -> np.ndarray:
-    l_, n = c.shape
-    out = np.empty((rows * l_, n))
-    ci = c
-    for i in range(rows):
-        out[i * l_: (i + 1) * l_] = ci
-        ci = ci @ a
-    return out
+__all__ = ["identify_open_loop", "open_loop_method"]
 
 
-def _bd_regression(
-    a: np.ndarray, c: np.ndarray, u: np.ndarray, y: np.ndarray, feedthrough: bool
-) -> tuple[np.ndarray, np.ndarray]:
-    """B, D (and a nuisance x0) by linear least squares on the whole record, A and C fixed.
+def open_loop_method(weighting: str, doc: str, module: str) -> Callable[..., SubspaceModel]:
+    """Build the public function of one open-loop method; both share this one signature.
 
-    ``y[t] = C A^t x0 + sum_k C A^(t-1-k) B u[k] + D u[t]`` is linear in ``(B, D, x0)``. The
-    regressor of ``B[:, j]`` on output ``r`` is the state of the transposed system
-    ``s+ = A' s + C[r]' u_j``. This is the output-error optimum for the given ``A, C``, and it
-    is well posed for any horizon (the ``Gamma_perp`` equations of textbook MOESP have only
-    ``f l - n`` rows per block and become ill-conditioned when ``n`` is close to ``f l``).
-    Memory: ``N * l * (n m + l m + n)`` regressor values.
+    PO-MOESP and N4SID take the same arguments and differ only in the weighting of the SVD,
+    so their signature is written once, here, and each method module supplies its name and
+    docstring.
+
+    Parameters
+    ----------
+    weighting : {"moesp", "n4sid"}
+        Method; also the function's name.
+    doc : str
+        The function's docstring (numpydoc).
+    module : str
+        Module the function belongs to (its ``__module__``, for documentation tools).
+
+    Returns
+    -------
+    callable
+        ``f(u, y, order, horizon, dt=1.0, *, past=None, feedthrough=False,
+        max_order=None) -> SubspaceModel``.
     """
-    n = a.shape[0]
-    n_s, m = u.shape
-    l_ = y.shape[1]
-    n_b = n * m
-    n_d = l_ * m if feedthrough else 0
-    phi = np.zeros((n_s, l_, n_b + n_d + n))
-    eye = np.eye(n)
-    zero_d = np.zeros((n, 1))
-    for r_ in range(l_):
-        for j in range(m):
-            phi[:, r_, j * n: (j + 1) * n] = dlsim(a.T, c[r_][:, None], eye, zero_d, u[:, j: j + 1])
-            if feedthrough:
-                phi[:, r_, n_b + r_ * m + j] = u[:, j]
-    phi[:, :, n_b + n_d:] = free_response(a, c, n_s)  # (N, l, n): the nuisance x0
-    # QR-based solver (gelsy): several times faster than the SVD-based default on this tall,
-    # well-conditioned problem, and rank-revealing all the same.
-    theta = sla.lstsq(phi.reshape(n_s * l_, -1), y.reshape(-1), lapack_driver="gelsy",
-                      check_finite=False)[0]
-    bmat = theta[:n_b].reshape(m, n).T
-    dmat = theta[n_b: n_b + n_d].reshape(l_, m) if feedthrough else np.zeros((l_, m))
-    return bmat, dmat
 
+    def method(
+        u: object,
+        y: object,
+        order: int | str,
+        horizon: int,
+        dt: float = 1.0,
+        *,
+        past: int | None = None,
+        feedthrough: bool = False,
+        max_order: int | None = None,
+    ) -> SubspaceModel:
+        return identify_open_loop(
+            u, y, order, horizon, dt, past, feedthrough, max_order, weighting
+        )
 
-def _bd_gamma_perp(
-    a: np.ndarray,
-    c: np.ndarray,
-    gperp: np.ndarray,
-    psi_u: np.ndarray,
-    f: int,
-    m: int,
-    feedthrough: bool,
-) -> tuple[np.ndarray, np.ndarray]:
-    """B, D from ``Gamma_perp' Psi_u = Gamma_perp' H_f(B, D)`` (no simulation; used when the
-    estimated A is unstable and simulation regressors would overflow)."""
-    l_, n = c.shape
-    fl = f * l_
-    obs = _observability(a, c, f)
-    rows_lhs, rows_rhs = [], []
-    for j in range(f):
-        lhs_d = np.zeros((fl, l_))
-        lhs_d[j * l_: (j + 1) * l_] = np.eye(l_)
-        lhs_b = np.zeros((fl, n))
-        lhs_b[(j + 1) * l_:] = obs[: (f - j - 1) * l_]
-        blk = [gperp.T @ lhs_b]
-        if feedthrough:
-            blk.insert(0, gperp.T @ lhs_d)
-        rows_lhs.append(np.hstack(blk))
-        rows_rhs.append(gperp.T @ psi_u[:, j * m: (j + 1) * m])
-    sol = np.linalg.lstsq(np.vstack(rows_lhs), np.vstack(rows_rhs), rcond=None)[0]
-    if feedthrough:
-        return sol[l_:], sol[:l_]
-    return sol, np.zeros((l_, m))
+    method.__name__ = method.__qualname__ = weighting
+    method.__doc__ = doc
+    method.__module__ = module
+    return method
 
 
 def identify_open_loop(
@@ -195,9 +165,9 @@ def identify_open_loop(
     amat = np.linalg.lstsq(gam[:-l_], gam[l_:], rcond=None)[0]
 
     if np.max(np.abs(np.linalg.eigvals(amat))) < 1.0:
-        bmat, dmat = _bd_regression(amat, cmat, data.z[:m].T, data.z[m:].T, feedthrough)
+        bmat, dmat = bd_least_squares(amat, cmat, data.z, m, feedthrough)
     else:
-        bmat, dmat = _bd_gamma_perp(amat, cmat, gperp, psi_u, f, m, feedthrough)
+        bmat, dmat = bd_gamma_perp(amat, cmat, gperp, psi_u, f, m, feedthrough)
 
     # Stochastic part: state x[t] = Gamma^+ Psi_z z_p[t]; x[t+1] uses lags 1..p, where lag p
     # (= z[t]) is the first future block. Residual covariances -> Riccati -> Kalman gain.

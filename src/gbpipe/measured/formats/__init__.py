@@ -3,6 +3,10 @@
 Every reader is a :class:`Source`: ``names()`` lists the channel addresses a mapping may
 use, ``read(name)`` returns a :class:`gbpipe.measured.channels.Channel`, ``prefetch(names)``
 lets a text format read several columns in one pass, ``close()`` releases the file.
+Readers that can stream (TDMS, delimited text) also offer ``stream(name)``, the channel
+as a :class:`gbpipe.measured.columns.StreamChannel` read block by block (and delimited
+text ``spill(names)``, its one pass over the columns); :func:`open_streams` gives every
+format that interface, wrapping the channels of the others, read into memory.
 :func:`open_source` picks the reader from ``format:`` or the file suffix and refuses a
 missing or empty file before any parsing.
 """
@@ -14,10 +18,12 @@ from typing import Protocol
 
 from gbpipe.errors import DataError
 from gbpipe.measured.channels import Channel
+from gbpipe.measured.columns import StreamChannel, from_channel
 from gbpipe.measured.formats import delimited, mat, mdf, tdms, uff
 from gbpipe.measured.spec import FileSpec
 
-__all__ = ["Source", "open_source", "FORMATS", "format_of"]
+__all__ = ["Source", "StreamingSource", "open_source", "open_streams", "FORMATS",
+           "STREAMED", "format_of"]
 
 #: format name -> (reader class, file suffixes)
 FORMATS = {
@@ -39,6 +45,30 @@ class Source(Protocol):
     def prefetch(self, names: list[str]) -> None: ...
 
     def close(self) -> None: ...
+
+
+class StreamingSource(Source, Protocol):
+    """A reader that also gives channels for block-wise reading."""
+
+    def stream(self, name: str) -> StreamChannel: ...
+
+
+#: formats whose readers stream (the others are read into memory, then wrapped)
+STREAMED = ("tdms", "csv")
+
+
+def open_streams(source: Source, names: list[str]) -> dict[str, StreamChannel]:
+    """The channels ``names`` of an open source as :class:`StreamChannel` objects.
+
+    Streaming readers read nothing yet (a text reader first spills the columns to disk in
+    one pass); the others read each channel into memory and wrap it.
+    """
+    if hasattr(source, "stream"):
+        if hasattr(source, "spill"):
+            source.spill(names)
+        return {n: source.stream(n) for n in names}
+    source.prefetch(names)
+    return {n: from_channel(source.read(n)) for n in names}
 
 
 def format_of(path: str | Path, fmt: str | None = None) -> str:

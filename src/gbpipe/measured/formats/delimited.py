@@ -7,13 +7,19 @@ one :class:`csv.Sniffer` finds in the first 64 kB; ``decimal: ","`` reads decima
 Time base: ``time:`` (a column) or ``sample_rate:``.
 
 The requested columns are read in one pass, in chunks of :data:`CHUNK` rows and only
-those columns (``usecols``), so memory stays at one float64 copy of them.
+those columns (``usecols``), so memory stays at one float64 copy of them. For long
+records, :meth:`DelimitedSource.spill` writes the columns chunk by chunk to raw float64
+files in a temporary folder (removed by ``close()``) and :meth:`DelimitedSource.stream`
+reads them back block by block: memory stays at one chunk.
 """
 
 from __future__ import annotations
 
 import csv
 import re
+import tempfile
+from collections.abc import Callable
+from contextlib import ExitStack
 from pathlib import Path
 
 import numpy as np
@@ -21,6 +27,7 @@ import pandas as pd
 
 from gbpipe.errors import DataError
 from gbpipe.measured.channels import Channel, find
+from gbpipe.measured.columns import FileColumn, StreamChannel, attach_stream
 from gbpipe.measured.formats.timebase_of import attach
 from gbpipe.measured.spec import FileSpec
 
@@ -67,33 +74,76 @@ class DelimitedSource:
             if m and m["name"] and m["name"] not in self._alias:
                 self._alias[m["name"]] = h
         self._cache: dict[str, np.ndarray] = {}
+        self._spilled: dict[str, FileColumn] = {}
+        self._spill_dir: tempfile.TemporaryDirectory | None = None
 
     def names(self) -> list[str]:
         return list(self._alias)
 
     def close(self) -> None:
         self._cache.clear()
+        self._spilled.clear()
+        if self._spill_dir is not None:
+            self._spill_dir.cleanup()
+            self._spill_dir = None
 
     def prefetch(self, names: list[str]) -> None:
         """Read the columns ``names`` (and the time column) in one chunked pass."""
-        wanted = [self._alias[find(n, self.names(), str(self.path))] for n in names]
-        if self.fspec.time is not None:
-            wanted.append(self._alias[find(self.fspec.time, self.names(),
-                                           f"{self.path} (field 'time')")])
-        wanted = [w for w in dict.fromkeys(wanted) if w not in self._cache]
+        wanted = [w for w in self._wanted(names) if w not in self._cache]
         if not wanted:
             return
         parts: dict[str, list[np.ndarray]] = {w: [] for w in wanted}
-        try:
-            for chunk in self._chunks(wanted, float):
-                for w in wanted:
-                    parts[w].append(chunk[w].to_numpy(float))
-        except ValueError:
-            self._locate_bad(wanted)
-            raise
+        self._scan(wanted, lambda w, v: parts[w].append(v))
         for w in wanted:  # pop: one column's chunks and its concatenation at a time
             chunks = parts.pop(w)
             self._cache[w] = np.concatenate(chunks) if chunks else np.empty(0)
+
+    def spill(self, names: list[str]) -> None:
+        """Read the columns ``names`` (and the time column) in one chunked pass into raw
+        float64 files in a temporary folder, for :meth:`stream`: memory stays at one
+        chunk, whatever the length of the file."""
+        wanted = [w for w in self._wanted(names) if w not in self._spilled]
+        if not wanted:
+            return
+        if self._spill_dir is None:
+            self._spill_dir = tempfile.TemporaryDirectory(prefix="gbpipe-spill-")
+        paths = {w: Path(self._spill_dir.name) / f"{len(self._spilled) + i}.f64"
+                 for i, w in enumerate(wanted)}
+        with ExitStack() as stack:
+            files = {w: stack.enter_context(open(p, "wb")) for w, p in paths.items()}
+            self._scan(wanted, lambda w, v: v.tofile(files[w]))
+        for w, p in paths.items():
+            self._spilled[w] = FileColumn(p, p.stat().st_size // 8)
+
+    def stream(self, name: str) -> StreamChannel:
+        """The column ``name`` for block-wise reading (spilled to disk first, if
+        :meth:`spill` has not done it yet)."""
+        header = self._alias[find(name, self.names(), str(self.path))]
+        self.spill([header])
+        time = None
+        if self.fspec.time is not None:
+            time = self._spilled[self._wanted([])[0]]
+        return attach_stream(self._spilled[header], self._units[header], self.fspec,
+                             str(self.path), header, time)
+
+    def _wanted(self, names: list[str]) -> list[str]:
+        """Headers of ``names`` and of the time column, without repeats."""
+        wanted = [self._alias[find(n, self.names(), str(self.path))] for n in names]
+        if self.fspec.time is not None:
+            wanted.insert(0, self._alias[find(self.fspec.time, self.names(),
+                                              f"{self.path} (field 'time')")])
+        return list(dict.fromkeys(wanted))
+
+    def _scan(self, wanted: list[str], sink: Callable[[str, np.ndarray], object]) -> None:
+        """One chunked pass over the columns ``wanted``: ``sink(header, values)`` per
+        chunk and column."""
+        try:
+            for chunk in self._chunks(wanted, float):
+                for w in wanted:
+                    sink(w, chunk[w].to_numpy(float))
+        except ValueError:
+            self._locate_bad(wanted)
+            raise
 
     def _chunks(self, wanted: list[str], dtype):
         reader = pd.read_csv(self.path, sep=self.sep, decimal=self.fspec.decimal,

@@ -8,6 +8,8 @@ Unit: the ``unit_string`` property.
 The file is opened with :meth:`nptdms.TdmsFile.open`, which reads only the metadata; a
 channel's data is then read in blocks of :data:`BLOCK` values and converted to float64
 block by block, so memory stays at one float64 copy of the channels asked for.
+:meth:`TdmsSource.stream` reads nothing: it returns the channel as a :class:`TdmsColumn`
+that the streaming reader (:mod:`gbpipe.measured.stream`) reads block by block.
 
 ``NI_ArrayColumn`` layout: some NI programs store a 2-D array as channels carrying the
 property ``NI_ArrayColumn = k``, with every column interleaved (row-major) in the first
@@ -24,10 +26,11 @@ from nptdms import TdmsFile
 
 from gbpipe.errors import DataError
 from gbpipe.measured.channels import Channel, find
+from gbpipe.measured.columns import StreamChannel, attach_stream
 from gbpipe.measured.formats.timebase_of import attach
 from gbpipe.measured.spec import FileSpec
 
-__all__ = ["TdmsSource", "BLOCK"]
+__all__ = ["TdmsSource", "TdmsColumn", "BLOCK"]
 
 #: values read per block (8 MB of float64)
 BLOCK = 1 << 20
@@ -76,42 +79,94 @@ class TdmsSource:
             return None  # an ordinary file where each column channel holds its own data
         return first, int(ch.properties["NI_ArrayColumn"]), len(cols)
 
-    def _data(self, name: str, ch) -> np.ndarray:
+    def _column(self, name: str, ch) -> TdmsColumn:
         layout = self._array_column(ch)
         src, k, ncol = (ch, 0, 1) if layout is None else layout
-        total = len(src)
-        if total % ncol:
-            raise DataError(f"{self.path}: channel '{name}'", f"NI_ArrayColumn layout: "
-                            f"{total} values in column 0 is not a multiple of {ncol} columns")
-        out = np.empty(total // ncol)
-        step = BLOCK - BLOCK % ncol
-        try:
-            for start in range(0, total, step):
-                block = src.read_data(offset=start, length=min(step, total - start))
-                out[start // ncol:(start + block.size) // ncol] = block[k::ncol]
-        except (ValueError, EOFError, OSError) as exc:
-            raise DataError(f"{self.path}: channel '{name}'", f"cannot read the data "
-                            f"(truncated file?): {exc}") from exc
-        return out
+        return TdmsColumn(src, k, ncol, f"{self.path}: channel '{name}'")
+
+    def _data(self, name: str, ch) -> np.ndarray:
+        column = self._column(name, ch)
+        return column.read(0, column.size)
 
     def read(self, name: str) -> Channel:
         name = find(name, self.names(), str(self.path))
         ch = self._channels[name]
-        values = self._data(name, ch)
-        unit = ch.properties.get("unit_string") or None
-        props = ch.properties
-        if self.fspec.time is None and "wf_increment" in props:
-            dt = float(props["wf_increment"])
-            if not dt > 0:
-                raise DataError(f"{self.path}: channel '{name}'",
-                                f"field 'wf_increment' = {dt} s is not positive")
-            epoch = props.get("wf_start_time")
-            epoch = None if epoch is None else np.datetime64(epoch, "ns")
-            return Channel(values, unit, t0=float(props.get("wf_start_offset", 0.0)), dt=dt,
-                           epoch=epoch)
+        base = self._waveform(name, ch)
+        if base is not None:
+            return Channel(self._data(name, ch), ch.properties.get("unit_string") or None,
+                           t0=base[0], dt=base[1], epoch=base[2])
 
         def read_time(tname: str) -> np.ndarray:
             tname = find(tname, self.names(), f"{self.path} (field 'time')")
             return self._data(tname, self._channels[tname])
 
-        return attach(values, unit, self.fspec, str(self.path), name, read_time)
+        return attach(self._data(name, ch), ch.properties.get("unit_string") or None,
+                      self.fspec, str(self.path), name, read_time)
+
+    def stream(self, name: str) -> StreamChannel:
+        """The channel ``name`` for block-wise reading (nothing is read yet)."""
+        name = find(name, self.names(), str(self.path))
+        ch = self._channels[name]
+        values = self._column(name, ch)
+        unit = ch.properties.get("unit_string") or None
+        base = self._waveform(name, ch)
+        if base is not None:
+            return StreamChannel(values, unit, t0=base[0], dt=base[1], epoch=base[2])
+        time = None
+        if self.fspec.time is not None:
+            tname = find(self.fspec.time, self.names(), f"{self.path} (field 'time')")
+            time = self._column(tname, self._channels[tname])
+        return attach_stream(values, unit, self.fspec, str(self.path), name, time)
+
+    def _waveform(self, name: str, ch) -> tuple[float, float, np.datetime64 | None] | None:
+        """(t0 [s], dt [s], absolute epoch) from the waveform properties, when the mapping
+        gives no ``time:`` channel and the channel has ``wf_increment``; else ``None``."""
+        props = ch.properties
+        if self.fspec.time is not None or "wf_increment" not in props:
+            return None
+        dt = float(props["wf_increment"])
+        if not dt > 0:
+            raise DataError(f"{self.path}: channel '{name}'",
+                            f"field 'wf_increment' = {dt} s is not positive")
+        epoch = props.get("wf_start_time")
+        epoch = None if epoch is None else np.datetime64(epoch, "ns")
+        return float(props.get("wf_start_offset", 0.0)), dt, epoch
+
+
+class TdmsColumn:
+    """Block-wise access to a TDMS channel, or to column ``k`` of ``ncol`` interleaved in
+    an ``NI_ArrayColumn`` column-0 channel.
+
+    Parameters
+    ----------
+    channel : nptdms.TdmsChannel
+        The channel that holds the data.
+    k, ncol : int
+        Column index and column count (0 and 1 for an ordinary channel).
+    source : str
+        ``file: channel`` for error messages.
+    """
+
+    def __init__(self, channel, k: int, ncol: int, source: str) -> None:
+        total = len(channel)
+        if total % ncol:
+            raise DataError(source, f"NI_ArrayColumn layout: {total} values in column 0 is "
+                            f"not a multiple of {ncol} columns")
+        self.channel, self.k, self.ncol, self.source = channel, k, ncol, source
+        self.size = total // ncol
+
+    def read(self, start: int, stop: int) -> np.ndarray:
+        """Samples ``start … stop-1`` as float64, read in blocks of :data:`BLOCK` values."""
+        stop = min(stop, self.size)
+        out = np.empty(max(stop - start, 0))
+        step = BLOCK - BLOCK % self.ncol
+        first, last = start * self.ncol, stop * self.ncol
+        try:
+            for pos in range(first, last, step):
+                block = self.channel.read_data(offset=pos, length=min(step, last - pos))
+                at = (pos - first) // self.ncol
+                out[at:at + block.size // self.ncol] = block[self.k::self.ncol]
+        except (ValueError, EOFError, OSError) as exc:
+            raise DataError(self.source, f"cannot read the data (truncated file?): "
+                            f"{exc}") from exc
+        return out

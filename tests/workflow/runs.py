@@ -1,8 +1,10 @@
-"""Fixtures of the workflow tests: scratch copies of the repository and one complete CI run.
+"""Scratch copies of the repository and Snakemake runs in them (the workflow and cluster
+tests; the shared complete runs are the session fixtures ``ci_run`` and ``measured_run`` of
+tests/conftest.py).
 
 Every workflow test runs Snakemake in a copy (what a fresh clone holds), with that copy's
-``src`` first on ``PYTHONPATH``, under the usual umask 022. The complete CI run is built
-once per test session and shared; tests that change files change their own copy.
+``src`` first on ``PYTHONPATH``, under the usual umask 022. Tests that change files change
+their own copy.
 """
 
 from __future__ import annotations
@@ -13,9 +15,8 @@ import subprocess
 import sys
 from pathlib import Path
 
-import pytest
-
-from tests.conftest import ROOT
+#: The repository (a fresh clone's content is copied from here).
+ROOT = Path(__file__).resolve().parents[2]
 
 SNAKEMAKE = [sys.executable, "-m", "snakemake", "--cores", "2", "--configfile",
              "config/ci.yaml"]
@@ -72,9 +73,5 @@ def start_snakemake(work: Path, log: Path) -> subprocess.Popen:
                                 preexec_fn=_umask_022)
 
 
-@pytest.fixture(scope="session")
-def ci_run(tmp_path_factory) -> Path:
-    """A copy of the repository with a complete CI run in ``results/``."""
-    work = copy_repo(tmp_path_factory.mktemp("ci_run"))
-    snakemake(work)
-    return work
+#: The bench-record example on top of the CI config (config/examples/measured.yaml).
+MEASURED_CONFIGS = ("config/ci.yaml", "config/examples/measured.yaml")

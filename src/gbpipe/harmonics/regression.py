@@ -1,0 +1,177 @@
+"""Angle-domain least-squares harmonic regression with slowly varying amplitudes.
+
+Every order ``o_k`` of every family is fitted jointly as
+
+    x(t) = sum_k sum_j B_j(t) (a_kj cos(o_k theta(t)) + b_kj sin(o_k theta(t))) + e(t)
+
+plus a slowly varying mean ``sum_j B_j(t) m_j`` (fitted, never subtracted: a torque
+record's large mean and trends would otherwise leak into the low orders), with ``theta``
+the shaft angle of each sample from the tachometer
+(:mod:`gbpipe.harmonics.angle`; the regressors are functions of angle, evaluated at the
+record's own samples, so nothing is resampled) and ``B_j`` a basis in time for the
+slowly varying amplitudes: cubic B-splines on uniform knots (default: local, so the
+normal equations are banded) or Legendre polynomials over the record (global, dense).
+
+The normal equations are accumulated block by block (blocks of samples inside one knot
+interval: each touches only ``degree + 1`` spline functions), into lower banded storage,
+and solved by banded Cholesky: memory linear in the record, independent of its length
+for the matrix. Estimating all families at once, unlike a cascade, leaves no family's
+leakage in another's estimate; orders closer than about ``1 / (revolutions per knot
+interval)`` are told apart only through the joint fit, at the cost of noise gain.
+"""
+
+from __future__ import annotations
+
+from typing import Literal
+
+import numpy as np
+from scipy.interpolate import BSpline
+from scipy.linalg import cho_solve_banded, cholesky_banded
+
+from gbpipe.harmonics.checks import as_count, as_positive
+from gbpipe.harmonics.removal_inputs import Families, removal_inputs
+from gbpipe.harmonics.tacho import AngleMethod
+
+__all__ = ["AmplitudeBasis", "residual_regression"]
+
+
+class AmplitudeBasis:
+    """Basis in time of the slowly varying harmonic amplitudes.
+
+    Parameters
+    ----------
+    t_start, t_end : float
+        Span of the record [s].
+    kind : {"bspline", "legendre"}
+        Cubic (or ``degree``) B-splines on uniform knots, or Legendre polynomials.
+    knot_spacing : float
+        Distance between knots [s] (B-splines only).
+    degree : int
+        Spline degree, or the highest Legendre degree.
+
+    Attributes
+    ----------
+    size : int
+        Number of basis functions.
+    support : int
+        Basis functions that can be non-zero at one time (bandwidth of the normal
+        equations, in functions).
+    breaks : numpy.ndarray
+        Times [s] where the set of non-zero functions changes (knots).
+    """
+
+    def __init__(self, t_start: float, t_end: float, kind: str, knot_spacing: float,
+                 degree: int) -> None:
+        if kind not in ("bspline", "legendre"):
+            raise ValueError(f"basis must be 'bspline' or 'legendre'; got {kind!r}")
+        self.kind, self.degree = kind, degree
+        self.t_start, self.t_end = t_start, t_end
+        if kind == "bspline":
+            n_int = max(1, int(np.ceil((t_end - t_start) / knot_spacing)))
+            inner = np.linspace(t_start, t_end, n_int + 1)
+            self.knots = np.r_[[t_start] * degree, inner, [t_end] * degree]
+            self.size = self.knots.size - degree - 1
+            self.support = degree + 1
+            self.breaks = inner[1:-1]
+        else:
+            self.size = self.support = degree + 1
+            self.breaks = np.empty(0)
+
+    def values(self, t: np.ndarray) -> tuple[np.ndarray, int]:
+        """Values (len(t), support) of the functions non-zero on ``t``, and the index of
+        the first; ``t`` must lie within one knot interval (B-splines)."""
+        if self.kind == "legendre":
+            u = 2.0 * (t - self.t_start) / (self.t_end - self.t_start) - 1.0
+            return np.polynomial.legendre.legvander(u, self.degree), 0
+        tc = np.clip(t, self.t_start, self.t_end)
+        dm = BSpline.design_matrix(tc, self.knots, self.degree)
+        first = min(int(dm.indices.min()), self.size - self.support)
+        return dm[:, first:first + self.support].toarray(), first
+
+
+def _blocks(times: np.ndarray, breaks: np.ndarray, block: int) -> np.ndarray:
+    """Sample cuts: every ``block`` samples and at every break, so that no block
+    straddles a knot."""
+    cuts = np.union1d(np.arange(0, times.size, block), np.searchsorted(times, breaks))
+    return np.append(cuts, times.size)
+
+
+def _local_design(basis: AmplitudeBasis, t: np.ndarray, phases: np.ndarray,
+                  ) -> tuple[np.ndarray, int]:
+    """Design matrix of one block, columns (function j; slow mean, then cos/sin of each
+    order), and its first column in the global unknown vector."""
+    vals, first = basis.values(t)
+    trig = np.empty((t.size, 2 * phases.shape[1] + 1))
+    trig[:, 0] = 1.0
+    trig[:, 1::2] = np.cos(phases)
+    trig[:, 2::2] = np.sin(phases)
+    design = (vals[:, :, None] * trig[:, None, :]).reshape(t.size, -1)
+    return design, first * trig.shape[1]
+
+
+def residual_regression(x: np.ndarray, fs: float, pulse_times: np.ndarray,
+                        families: Families, pulses_per_rev: int = 1, *,
+                        basis: Literal["bspline", "legendre"] = "bspline",
+                        knot_spacing: float = 1.0, degree: int = 3, ridge: float = 1e-10,
+                        block: int = 8192, t0: float = 0.0,
+                        method: AngleMethod = "pchip") -> np.ndarray:
+    """Remove order families by joint least-squares regression on the shaft angle.
+
+    Parameters
+    ----------
+    x, fs, pulse_times, families, pulses_per_rev, t0, method
+        The common signature (:func:`gbpipe.harmonics.removal.remove_harmonics`).
+        All orders of all families are fitted together.
+    basis : {"bspline", "legendre"}
+        Basis of the amplitudes in time (module notes).
+    knot_spacing : float
+        Knot distance of the B-spline basis [s]: amplitude and phase changes faster than
+        about this are not followed (a resonance crossing lasts ``2 zeta f_mode /
+        sweep rate`` s).
+    degree : int
+        Spline degree (bspline), or highest Legendre degree (legendre).
+    ridge : float
+        Tikhonov term, relative to the mean diagonal of the normal matrix [-]: keeps
+        near-coincident orders solvable without changing well-separated ones.
+    block : int
+        Samples per block of the normal-equation accumulation (memory per block).
+
+    Returns
+    -------
+    numpy.ndarray
+        The residual: ``x`` minus the fitted harmonics (unit of ``x``).
+
+    Raises
+    ------
+    ValueError
+        Unknown basis, or non-positive knot spacing or ridge.
+    """
+    rec, _, orders = removal_inputs(x, fs, pulse_times, families, pulses_per_rev, t0, method)
+    knot_spacing = as_positive(knot_spacing, "knot_spacing", "s")
+    ridge = as_positive(ridge, "ridge", "relative units")
+    degree = as_count(degree, "degree")
+    block = as_count(block, "block", 16)
+    times = rec.times
+    amp = AmplitudeBasis(float(times[0]), float(times[-1]), basis, knot_spacing, degree)
+    y = rec.x[rec.span]
+    per_function = 2 * orders.size + 1
+    n_unknown = amp.size * per_function
+    width = amp.support * per_function  # columns touched by one block
+    ab = np.zeros((width, n_unknown))
+    rhs = np.zeros(n_unknown)
+    cuts = _blocks(times, amp.breaks, block)
+    for a, b in zip(cuts[:-1], cuts[1:], strict=True):  # blocks: memory per block only
+        design, c0 = _local_design(amp, times[a:b], np.outer(rec.theta[a:b], orders))
+        gram = design.T @ design
+        for d in range(width):  # lower diagonals of the local normal matrix
+            ab[d, c0:c0 + width - d] += np.diagonal(gram, -d)
+        rhs[c0:c0 + width] += design.T @ y[a:b]
+    ab[0] += ridge * float(np.mean(ab[0]))
+    coef = cho_solve_banded((cholesky_banded(ab, lower=True), True), rhs)
+    coef[::per_function] = 0.0  # the slow mean is fitted, never subtracted
+    out = rec.x.copy()
+    seg = out[rec.span]
+    for a, b in zip(cuts[:-1], cuts[1:], strict=True):
+        design, c0 = _local_design(amp, times[a:b], np.outer(rec.theta[a:b], orders))
+        seg[a:b] -= design @ coef[c0:c0 + width]
+    return out

@@ -1,0 +1,134 @@
+"""Harmonic-removal methods side by side, behind one signature.
+
+:data:`METHODS` maps a method name (the config's ``removal.method``) to a function
+
+    f(x, fs, pulse_times, families, pulses_per_rev=1, *, t0=0.0, method="pchip",
+      **params) -> residual
+
+modelled on :func:`gbpipe.harmonics.residual_joint`: a record (any unit) sampled at
+``fs`` [Hz], the HSS tachometer pulse times [s], the order families to remove (name ->
+orders [HSS orders], as :func:`gbpipe.harmonics.excitation_families` gives them), and the
+residual of the same length (samples outside the pulse span unchanged). ``params`` are the
+method's own keyword arguments.
+
+=============  =========================================================================
+``tsa``        time-synchronous averaging (:mod:`gbpipe.harmonics.tsa`, unchanged): one
+               cycle per family, the greatest common divisor of its orders; removes every
+               harmonic of that cycle, not only the listed orders
+``vkf``        Vold-Kalman order tracking filter (:mod:`gbpipe.harmonics.vkf`)
+``regression`` angle-domain least-squares regression (:mod:`gbpipe.harmonics.regression`)
+``drs``        discrete/random separation (:mod:`gbpipe.harmonics.drs`)
+``cepstrum``   cepstral editing (:mod:`gbpipe.harmonics.cepstrum`)
+=============  =========================================================================
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from fractions import Fraction
+from typing import Literal
+
+import numpy as np
+
+from gbpipe.harmonics.cepstrum import residual_cepstrum
+from gbpipe.harmonics.drs import residual_drs
+from gbpipe.harmonics.regression import residual_regression
+from gbpipe.harmonics.removal_inputs import Families, family_cycle, family_orders_checked
+from gbpipe.harmonics.tacho import AngleMethod
+from gbpipe.harmonics.tsa import residual, residual_joint
+from gbpipe.harmonics.vkf import residual_vkf
+
+__all__ = ["METHODS", "RemovalMethod", "family_cycles", "residual_tsa", "remove_harmonics"]
+
+#: A removal method: ``f(x, fs, pulse_times, families, pulses_per_rev=1, **params)``.
+RemovalMethod = Callable[..., np.ndarray]
+
+
+def family_cycles(families: Families) -> list[Fraction]:
+    """The TSA cycles that remove the families: each family's fundamental, without the
+    cycles that are whole multiples of another (its harmonics are already removed)."""
+    family_orders_checked(families)
+    cycles = sorted({family_cycle(list(o)) for o in families.values()})
+    return [c for c in cycles if not any(d != c and (c / d).denominator == 1 for d in cycles)]
+
+
+def residual_tsa(
+    x: np.ndarray,
+    fs: float,
+    pulse_times: np.ndarray,
+    families: Families,
+    pulses_per_rev: int = 1,
+    *,
+    n_cycles: int = 10,
+    averaging: Literal["block", "sliding", "quadratic"] = "block",
+    unbiased: bool = False,
+    mode: Literal["joint", "cascade"] = "joint",
+    t0: float = 0.0,
+    method: AngleMethod = "pchip",
+) -> np.ndarray:
+    """TSA residual of the families' cycles (:func:`family_cycles`), by
+    :func:`gbpipe.harmonics.residual` or, for several, :func:`gbpipe.harmonics.residual_joint`.
+
+    Parameters are those of :func:`gbpipe.harmonics.residual_joint`; ``families`` as in
+    :data:`METHODS`.
+    """
+    cycles = family_cycles(families)
+    opts = dict(unbiased=unbiased, averaging=averaging, t0=t0, method=method)
+    if len(cycles) == 1:
+        return residual(x, fs, pulse_times, cycles[0], n_cycles, pulses_per_rev, **opts)
+    return residual_joint(x, fs, pulse_times, cycles, n_cycles, pulses_per_rev, mode=mode,
+                          **opts)
+
+
+#: Removal methods by name (module table).
+METHODS: dict[str, RemovalMethod] = {
+    "tsa": residual_tsa,
+    "vkf": residual_vkf,
+    "regression": residual_regression,
+    "drs": residual_drs,
+    "cepstrum": residual_cepstrum,
+}
+
+
+def remove_harmonics(name: str, x: np.ndarray, fs: float, pulse_times: np.ndarray,
+                     families: Families, pulses_per_rev: int = 1, **params) -> np.ndarray:
+    """Residual of ``x`` after removal of ``families`` by the method ``name``.
+
+    Parameters
+    ----------
+    name : {"tsa", "vkf", "regression", "drs", "cepstrum"}
+        Method (:data:`METHODS`).
+    x : array_like, shape (n,)
+        Record (any unit, e.g. N m), sample ``i`` at ``t0 + i / fs``. Not modified.
+    fs : float
+        Sample rate [Hz].
+    pulse_times : array_like
+        Tachometer pulse times of the HSS [s], within the record.
+    families : mapping str -> sequence of float or Fraction
+        Orders [HSS orders] of each family to remove (e.g.
+        :func:`gbpipe.harmonics.excitation_families`).
+    pulses_per_rev : int
+        Tachometer pulses per HSS revolution.
+    **params
+        The method's keyword arguments (e.g. ``bandwidth`` for ``vkf``), and ``t0``, the
+        time of the first sample [s] (default 0), and ``method``, the angle interpolation
+        between pulses (``"pchip"`` default, ``"cubic"``, ``"linear"``).
+
+    Returns
+    -------
+    numpy.ndarray
+        The residual, in the unit of ``x``; samples outside the pulse span (no angle)
+        are returned unchanged.
+
+    Raises
+    ------
+    DataError, PulseError
+        A bad record or pulse train (as :func:`gbpipe.harmonics.resample_to_angle`).
+    ValueError
+        Unknown method, or a bad parameter of the method.
+    TypeError
+        A parameter the method does not take.
+    """
+    if name not in METHODS:
+        raise ValueError(f"removal method {name!r} is unknown: use one of {sorted(METHODS)}")
+    return METHODS[name](x, fs, pulse_times, families, pulses_per_rev, **params)

@@ -1,0 +1,45 @@
+"""Job of tests/cluster/retry/Snakefile: a partial output, then the work, then the rest.
+
+``fail_once.py OUT --mem-mb M [--allocate-mb N] [--wait-at-mem-mb W]`` writes
+``started mem_mb=M`` to OUT (what a job killed mid-way leaves), then touches every page of
+N MiB (beyond M, SLURM's cgroup kills the job) or, when M == W, waits to be cancelled with
+scancel, and ends OUT with ``complete``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import time
+
+#: Seconds to wait for scancel before giving up (the test then fails, never hangs).
+WAIT_FOR_CANCEL = 120.0
+
+
+def main(argv: list[str]) -> int:
+    """Run the job; see the module docstring."""
+    parser = argparse.ArgumentParser()
+    parser.add_argument("output")
+    parser.add_argument("--mem-mb", type=int, required=True)
+    parser.add_argument("--allocate-mb", type=int, default=0)
+    parser.add_argument("--wait-at-mem-mb", type=int, default=-1)
+    args = parser.parse_args(argv)
+    with open(args.output, "w") as fh:
+        fh.write(f"started mem_mb={args.mem_mb}\n")
+        fh.flush()
+        os.fsync(fh.fileno())
+        if args.allocate_mb:
+            block = bytearray(args.allocate_mb * 2**20)
+            block[::4096] = b"x" * len(block[::4096])  # touch every page: resident
+            time.sleep(2.0)  # held long enough for a sampling memory monitor too
+        if args.mem_mb == args.wait_at_mem_mb:
+            time.sleep(WAIT_FOR_CANCEL)
+            print(f"not cancelled within {WAIT_FOR_CANCEL} s", file=sys.stderr)
+            return 1
+        fh.write("complete\n")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))

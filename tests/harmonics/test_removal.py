@@ -1,0 +1,49 @@
+"""Tests of gbpipe.harmonics.removal (the method table) and the family cycles, against
+hand-computed cycles and the TSA functions called directly."""
+
+from __future__ import annotations
+
+from fractions import Fraction
+
+import numpy as np
+import pytest
+from removal_signals import FAMILIES, db, inner, sweep
+
+from gbpipe.harmonics import residual_joint
+from gbpipe.harmonics.removal import METHODS, family_cycles, remove_harmonics
+from gbpipe.harmonics.removal_inputs import family_cycle
+
+
+def test_family_cycle_is_the_gcd():
+    mesh = Fraction(609 * 114, 12960)  # a mesh order as a Fraction of the teeth
+    assert family_cycle([mesh, 2 * mesh, 3 * mesh]) == mesh
+    assert family_cycle([Fraction(3, 2), 3]) == Fraction(3, 2)
+    assert family_cycle([2.0, 4.0, 6.0]) == 2
+
+
+def test_family_cycles_drop_multiples():
+    # mesh3 at 29 HSS orders is a harmonic of the HSS cycle: TSA of 1 already removes it
+    cyc = family_cycles({"shaft": [1, 2, 3], "mesh3": [29, 58], "mesh2": [Fraction(5, 2)]})
+    assert cyc == [Fraction(1), Fraction(5, 2)]
+
+
+def test_tsa_entry_is_residual_joint_of_the_cycles():
+    sw = sweep(noise=0.1)
+    r = remove_harmonics("tsa", sw["x"], sw["fs"], sw["pulses"], FAMILIES, n_cycles=10)
+    cycles = [1.0, family_cycle(FAMILIES["mesh"])]
+    ref = residual_joint(sw["x"], sw["fs"], sw["pulses"], cycles, 10)
+    np.testing.assert_allclose(r, ref, atol=1e-12)
+
+
+@pytest.mark.parametrize("name", ["vkf", "regression", "drs", "cepstrum"])
+def test_every_method_removes_through_the_table(name):
+    sw = sweep(noise=0.01)
+    r = remove_harmonics(name, sw["x"], sw["fs"], sw["pulses"], FAMILIES)
+    m = inner(sw["t"], sw["pulses"], 1.0)
+    assert db(np.mean(sw["h"][m] ** 2), np.mean((r - sw["res"])[m] ** 2)) >= 15.0
+
+
+def test_unknown_method():
+    assert set(METHODS) == {"tsa", "vkf", "regression", "drs", "cepstrum"}
+    with pytest.raises(ValueError, match="unknown"):
+        remove_harmonics("wavelet", np.zeros(10), 1.0, np.arange(3.0), FAMILIES)

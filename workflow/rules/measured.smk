@@ -1,0 +1,153 @@
+# Bench records (config `measured:`): files -> results/measured/{record}.nc -> spectra,
+# TSA and identification against the nonparametric FRF of the data (no truth exists).
+# When `measured:` is not empty, these are the workflow's targets instead of the simulated
+# campaign (common.smk, all_targets).
+import gbpipe.config
+
+MEASURED = list(config["measured"])
+
+
+def _bench_files(w):
+    # the record's source files: a changed file reruns the record
+    files = config["measured"][w.record]["files"].values()
+    return [f if isinstance(f, str) else f["path"] for f in files]
+
+
+def _has_tacho(record):
+    sig = config["measured"][record]["signals"].values()
+    return any(s.get("quantity") == "tacho" for s in sig)
+
+
+def _measured_identify_jobs():
+    return expand(f"{RESULTS}/identify/measured/{{record}}_{{method}}.nc", record=MEASURED,
+                  method=config["identify"]["methods"])
+
+
+def measured_targets():
+    """Final targets of the bench records (for `all_targets`)."""
+    targets = expand(f"{RESULTS}/measured/{{record}}.nc", record=MEASURED)
+    targets += [f"{RESULTS}/spectra/measured/{r}.nc" for r in MEASURED if _has_tacho(r)]
+    targets += _measured_identify_jobs()
+    targets.append(f"{RESULTS}/tables/identification_measured.csv")
+    for r in MEASURED:
+        targets += figure(f"measured_{r}")
+    return targets
+
+
+wildcard_constraints:
+    record="|".join(MEASURED) if MEASURED else "no_measured_record",
+
+
+rule measured:
+    message:
+        "Read bench record {wildcards.record}: files -> checked, SI units, common time grid"
+    input:
+        files=_bench_files,
+        code=code("measured.py"),
+    params:
+        spec=lambda w: config["measured"][w.record],
+        min_duration=gbpipe.config.min_duration(config) if MEASURED else 0.0,
+    output:
+        record=f"{RESULTS}/measured/{{record}}.nc",
+    log:
+        f"{RESULTS}/logs/measured/{{record}}.log",
+    benchmark:
+        f"{RESULTS}/benchmarks/measured/{{record}}.tsv"
+    script:
+        "../scripts/measured.py"
+
+
+rule spectra_measured:
+    message:
+        "Power and order spectra vs rpm of bench record {wildcards.record}"
+    input:
+        record=rules.measured.output.record,
+        code=code("spectra.py"),
+    params:
+        spectra=config["spectra"],
+        what=lambda w: f"bench record {w.record}",
+    output:
+        nc=f"{RESULTS}/spectra/measured/{{record}}.nc",
+    log:
+        f"{RESULTS}/logs/spectra/measured/{{record}}.log",
+    script:
+        "../scripts/spectra.py"
+
+
+rule tsa_measured:
+    message:
+        "Harmonic removal (TSA of {params.cycles}) on bench record {wildcards.record}"
+    input:
+        record=rules.measured.output.record,
+        code=code("tsa_tests.py"),
+    params:
+        cfg=lambda w: {"tsa": {k: config["tsa"][k] for k in ("n_cycles", "tests", "unbiased")},
+                       "stages": config["gearbox"]["stages"], "signals": _id_signals(),
+                       "keep_below": config["identify"]["tsa_keep_below"]},
+        cycles=lambda w: "+".join(config["tsa"]["tests"]),
+        what=lambda w: f"bench record {w.record}",
+    output:
+        nc=f"{RESULTS}/tsa/measured/{{record}}.nc",
+    log:
+        f"{RESULTS}/logs/tsa/measured/{{record}}.log",
+    script:
+        "../scripts/tsa_tests.py"
+
+
+rule identify_measured:
+    message:
+        "Identify {wildcards.method} on bench record {wildcards.record}: every pairing x "
+        "data version vs the nonparametric FRF of the data"
+    wildcard_constraints:
+        method="pbsid|moesp|n4sid",
+    input:
+        record=rules.measured.output.record,
+        tsa_record=lambda w: ([f"{RESULTS}/tsa/measured/{w.record}.nc"]
+                              if "tsa" in config["identify"]["versions"] else []),
+        code=code("identify_measured.py"),
+    params:
+        # tests, profiles and best.* are of the simulated campaign: not this job's
+        cfg=lambda w: {"campaign": {"settle": config["campaign"]["settle"]},
+                       "identify": {k: v for k, v in config["identify"].items()
+                                    if k not in ("tests", "profiles", "best")}},
+    output:
+        nc=f"{RESULTS}/identify/measured/{{record}}_{{method}}.nc",
+    log:
+        f"{RESULTS}/logs/identify/measured/{{record}}_{{method}}.log",
+    script:
+        "../scripts/identify_measured.py"
+
+
+rule identification_table_measured:
+    message:
+        "Table: match bandwidth and fit of every bench record x method x pairing x version"
+    input:
+        models=_measured_identify_jobs(),
+        code=code("identification_table.py"),
+    output:
+        table=f"{RESULTS}/tables/identification_measured.csv",
+    log:
+        f"{RESULTS}/logs/identification_table_measured.log",
+    script:
+        "../scripts/identification_table.py"
+
+
+rule figures_measured:
+    message:
+        "Figure: identified models of bench record {wildcards.record} against its data"
+    input:
+        models=expand(f"{RESULTS}/identify/measured/{{{{record}}}}_{{method}}.nc",
+                      method=config["identify"]["methods"]),
+        code=code("figures_measured.py"),
+    params:
+        coherence_min=config["identify"]["nonparametric"]["coherence_min"],
+    output:
+        png=report(f"{RESULTS}/figures/fig_measured_{{record}}.png",
+                   caption=f"../../{RESULTS}/report/fig_measured_{{record}}.rst",
+                   category="Bench records"),
+        pdf=f"{RESULTS}/figures/fig_measured_{{record}}.pdf",
+        caption=f"{RESULTS}/report/fig_measured_{{record}}.rst",
+    log:
+        f"{RESULTS}/logs/figures_measured/{{record}}.log",
+    script:
+        "../scripts/figures_measured.py"

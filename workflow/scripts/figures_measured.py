@@ -1,0 +1,12 @@
+"""Rule `figures_measured`: identified models of one bench record against its data."""
+
+from gbpipe import io
+from gbpipe.figures.measured_plots import measured_identification_figure
+
+snakemake = globals()["snakemake"]
+log = io.setup_log(snakemake.log[0])
+bws = measured_identification_figure([io.read(p) for p in snakemake.input.models],
+                                     snakemake.wildcards.record,
+                                     snakemake.params.coherence_min,
+                                     dict(snakemake.output.items()))
+log.info("match bandwidths: %s", bws)
