@@ -6,22 +6,12 @@ from fractions import Fraction
 
 import numpy as np
 import pytest
-from harmonic_sweeps import FS, MESH, make_sweep
+from harmonic_sweeps import FS, MESH
 
 from gbpipe import harmonics
 
 MODE_HZ = 62.0
 FAMILIES = {"hss": [1, 2, 3], "mesh2": [MESH, 2 * MESH, 3 * MESH]}
-
-
-@pytest.fixture(scope="module")
-def sw():
-    return make_sweep()
-
-
-@pytest.fixture(scope="module")
-def clean():
-    return make_sweep(noise=0.0)
 
 
 @pytest.mark.parametrize("name, order, own", [

@@ -13,16 +13,6 @@ from gbpipe.errors import DataError, PulseError
 from gbpipe.harmonics import tsa
 
 
-@pytest.fixture(scope="module")
-def sw():
-    return make_sweep()
-
-
-@pytest.fixture(scope="module")
-def clean():
-    return make_sweep(noise=0.0)
-
-
 # --------------------------------------------------------------------------- removal
 @pytest.mark.parametrize("name, order, own, other", [
     ("hss", 1, HSS_ORDERS, MESH_ORDERS),

@@ -115,9 +115,13 @@ def test_uff58(tmp_path, b, binary):
                                rtol=1e-6)
 
 
-def test_mat_v5(tmp_path, b):
-    write_mat(tmp_path / "m.mat", b)
-    spec = {"files": {"m": {"path": "m.mat", "time": "t"}}, "sample_rate": FS,
+@pytest.mark.parametrize("writer, file", [
+    (write_mat, {"path": "m.mat", "time": "t"}),               # v5: time base a variable
+    (write_mat73, {"path": "m.mat", "sample_rate": FS}),       # v7.3 (HDF5): the file's rate
+], ids=["v5", "v73"])
+def test_mat_v5_and_v73(tmp_path, b, writer, file):
+    writer(tmp_path / "m.mat", b)
+    spec = {"files": {"m": file}, "sample_rate": FS,
             "signals": {"torque": {"file": "m", "channel": "torque", "unit": "N*m"},
                         "torque2": {"file": "m", "channel": "both[:, 1]", "unit": "N*m"},
                         "tacho": {"file": "m", "channel": "both[:,0]", **TACHO}}}
@@ -135,18 +139,6 @@ def test_mat_testlab(tmp_path, b):
     ds = read(spec, tmp_path)
     _check_torque(ds, b)
     _check_torque(ds, b, "torque2")
-
-
-def test_mat_v73(tmp_path, b):
-    write_mat73(tmp_path / "m73.mat", b)
-    spec = {"files": {"m": {"path": "m73.mat", "sample_rate": FS}}, "sample_rate": FS,
-            "signals": {"torque": {"file": "m", "channel": "torque", "unit": "N*m"},
-                        "torque2": {"file": "m", "channel": "both[:, 1]", "unit": "N*m"},
-                        "tacho": {"file": "m", "channel": "both[:, 0]", **TACHO}}}
-    ds = read(spec, tmp_path)
-    _check_torque(ds, b)
-    _check_torque(ds, b, "torque2")
-    _check_pulses(ds, b)
 
 
 def test_mdf4(tmp_path, b):

@@ -19,6 +19,7 @@ import xarray as xr
 
 import gbpipe.simulate as sim
 from gbpipe.config import ConfigError, load, merge, validate
+from gbpipe.config.records import highest_excitation_hz
 from gbpipe.kinematics import order_of
 from tests.conftest import CONFIG
 
@@ -290,26 +291,6 @@ def test_excitation_seed_changes_only_the_harmonics(records, cfg_small):
 # ---------------------------------------------------------------------- bad input
 
 
-@pytest.fixture
-def no_simulation(monkeypatch):
-    """Any call of the simulator fails the test: errors must come before simulating."""
-    def boom(*args, **kwargs):
-        raise AssertionError("lsim was called: the error must come before simulating")
-
-    monkeypatch.setattr("gbpipe.simulate.campaign.lsim", boom)
-
-
-def _f_max(cfg) -> float:
-    """Highest configured excitation frequency [Hz] at the top campaign speed."""
-    st = cfg["gearbox"]["stages"]
-    exc = cfg["excitation"]
-    orders = [s["order"] for s in exc["shaft_orders"]]
-    orders += [float(order_of(st, f"mesh{m['stage']}")) * len(m["harmonics"])
-               for m in exc["mesh"]]
-    camp = cfg["campaign"]
-    return max(orders) * (camp["nominal"]["speed_rpm"] + camp["step"]["speed_rpm"]) / 60.0
-
-
 @pytest.mark.parametrize(("test", "profile", "message"), [
     ("speed_sideways", "square", r"^test: unknown test 'speed_sideways'.*speed_up"),
     ("torque_up", "sinusoidal", r"^profile: unknown profile 'sinusoidal'.*tapered"),
@@ -334,7 +315,7 @@ def test_bad_campaign_refused_before_simulating(cfg_small, no_simulation, overla
 
 def test_sample_rate_limit_is_2p5_times_highest_excitation(cfg_small, no_simulation):
     """The limit sits at 2.5 × the highest excitation frequency, computed from the teeth."""
-    f_max = _f_max(cfg_small)
+    f_max = highest_excitation_hz(cfg_small, 1170.0)  # top campaign speed [rpm]
     assert f_max == pytest.approx(29 * 2 * 1170 / 60)  # stage-3 mesh (29x), 2nd harmonic
     ok_rate = 2.5 * f_max * 1.01  # identify.sample_rate must divide it by an integer
     ok = merge(cfg_small, {"campaign": {"sample_rate": ok_rate},

@@ -18,6 +18,7 @@ from scipy.signal import welch
 
 import gbpipe.simulate as sim
 from gbpipe.config import ConfigError, load, merge, validate
+from gbpipe.config.records import highest_excitation_hz
 from gbpipe.kinematics import order_of
 from gbpipe.lti import modes
 from gbpipe.model import bench_ss
@@ -259,24 +260,6 @@ def test_sweep_reproducible(sw, cfg_sweep):
 # ---------------------------------------------------------------------- bad input
 
 
-@pytest.fixture
-def no_simulation(monkeypatch):
-    def boom(*args, **kwargs):
-        raise AssertionError("lsim was called: the error must come before simulating")
-
-    monkeypatch.setattr("gbpipe.simulate.campaign.lsim", boom)
-
-
-def _f_max_sweep(cfg) -> float:
-    st = cfg["gearbox"]["stages"]
-    exc = cfg["excitation"]
-    orders = [s["order"] for s in exc["shaft_orders"]]
-    orders += [float(order_of(st, f"mesh{m['stage']}")) * len(m["harmonics"])
-               for m in exc["mesh"]]
-    s = cfg["sweep"]
-    return max(orders) * max(s["rpm_start"], s["rpm_end"]) / 60.0
-
-
 @pytest.mark.parametrize(("overlay", "field"), [
     ({"duration": -10.0}, "sweep.duration"),         # negative duration
     ({"duration": 0.0}, "sweep.duration"),
@@ -300,7 +283,7 @@ def test_sweep_limits_from_ramp_rate_and_excitation(cfg_sweep, no_simulation):
     with pytest.raises(ConfigError, match=r"'sweep\.duration'.*ramp rate"):
         validate(merge(cfg_sweep, {"sweep": {"duration": needed * 0.99}}),
                  check_stability=False)
-    f_max = _f_max_sweep(cfg_sweep)
+    f_max = highest_excitation_hz(cfg_sweep, 1120.0)  # top sweep speed [rpm]
     assert f_max == pytest.approx(29 * 2 * 1120 / 60)
     validate(merge(cfg_sweep, {"sweep": {"sample_rate": 2.5 * f_max * 1.01}}),
              check_stability=False)

@@ -5,17 +5,17 @@
 import gbpipe.config
 
 MEASURED = list(config["measured"])
+# the records' mappings, parsed (and checked) once at load
+SPECS = gbpipe.config.measured_specs(config)
 
 
 def _bench_files(w):
     # the record's source files: a changed file reruns the record
-    files = config["measured"][w.record]["files"].values()
-    return [f if isinstance(f, str) else f["path"] for f in files]
+    return [f.path for f in SPECS[w.record].files.values()]
 
 
 def _has_tacho(record):
-    sig = config["measured"][record]["signals"].values()
-    return any(s.get("quantity") == "tacho" for s in sig)
+    return any(s.quantity == "tacho" for s in SPECS[record].signals.values())
 
 
 def _measured_identify_jobs():

@@ -3,9 +3,9 @@
 Every record mapping is parsed at load (:func:`gbpipe.measured.parse`: unknown keys,
 missing fields, bad gap policies), and everything the analysis will ask of the records
 that the mapping already tells is checked here, before any file is opened: the pairings
-name mapped signals, TSA has a tachometer, the identification rate divides each record's
-rate. A record too short for the identification windows is refused when it is read
-(:func:`min_duration` is passed to the reader).
+and ``spectra.signal`` name mapped signals, TSA has a tachometer, the identification
+rate divides each record's rate. A record too short for the identification windows is
+refused when it is read (:func:`min_duration` is passed to the reader).
 """
 
 from __future__ import annotations
@@ -40,15 +40,18 @@ def min_duration(cfg: Mapping[str, Any]) -> float:
 
 
 def _check_signals(cfg: Mapping[str, Any], specs: Mapping[str, RecordSpec]) -> None:
-    for i, p in enumerate(cfg["identify"]["pairings"]):
-        for key in ("inputs", "outputs", "reference"):
-            for j, name in enumerate(p.get(key, [])):
-                for rec, spec in specs.items():
-                    values = [n for n, sg in spec.signals.items() if sg.quantity != "tacho"]
-                    if name not in values:
-                        raise ConfigError(f"identify.pairings[{i}].{key}[{j}]",
-                                          f"'{name}' is not a signal of measured.{rec}; "
-                                          f"{suggest(name, values)}")
+    # every signal the analysis names is a mapped (non-tacho) signal of every record
+    named = [(f"identify.pairings[{i}].{key}[{j}]", name)
+             for i, p in enumerate(cfg["identify"]["pairings"])
+             for key in ("inputs", "outputs", "reference")
+             for j, name in enumerate(p.get(key, []))]
+    named.append(("spectra.signal", cfg["spectra"]["signal"]))
+    for rec, spec in specs.items():
+        values = [n for n, sg in spec.signals.items() if sg.quantity != "tacho"]
+        for field, name in named:
+            if name not in values:
+                raise ConfigError(field, f"'{name}' is not a signal of measured.{rec}; "
+                                  f"{suggest(name, values)}")
 
 
 def check_measured(cfg: Mapping[str, Any]) -> None:

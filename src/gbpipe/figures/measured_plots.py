@@ -54,12 +54,14 @@ def measured_identification_figure(datasets: Sequence[xr.Dataset], record: str,
                     squeeze=False, gridspec_kw={"height_ratios": [2.2, 1]})
     f = ds0.frequency.values
     bws: dict[str, float] = {}
+    share: dict[str, float] = {}
     for col, pairing in enumerate(pairings):
         ax, ax_c = axes[0, col], axes[1, col]
         first = ds0.isel(model=int(np.flatnonzero(ds0.pairing.values == pairing)[0]))
         sel = first.isel(output=0, input=0)
         g_ref = sel.frf_reference_real.values + 1j * sel.frf_reference_imag.values
         band = first.assessable.values > 0.5
+        share[pairing] = 100 * float(band.mean())
         ax.semilogx(f, _db(g_ref), "k", lw=1.6, label="nonparametric estimate")
         ax.fill_between(f, _db(sel.frf_reference_lower.values),
                         _db(sel.frf_reference_upper.values), where=band, color="C3",
@@ -90,8 +92,6 @@ def measured_identification_figure(datasets: Sequence[xr.Dataset], record: str,
         ax_c.set_xlabel("frequency [Hz]")
         ax_c.legend(fontsize=6, loc="lower left")
     save(fig, out["png"])
-    share = {p: 100 * float(ds0.assessable.values[
-        int(np.flatnonzero(ds0.pairing.values == p)[0])].mean()) for p in pairings}
     write_caption(out["caption"], f"Identification of the measured record {record}",
                   "extension (identification where no truth is known)",
                   "Black: nonparametric FRF of the conditioned data (Welch); red: its 95 % "

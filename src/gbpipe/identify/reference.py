@@ -41,9 +41,6 @@ class Reference(NamedTuple):
         95 % bounds of ``|frf|`` (NaN for the truth: it is exact).
     coherence : ndarray, shape (F, ny, nu)
         Coherence of the estimate (NaN for the truth).
-    band_max : float
-        Highest frequency the reference can assess [Hz] (the grid's top for the truth;
-        the highest coherent frequency for an estimate; 0 when none is coherent).
     modes, damping : ndarray
         True modes in the band [Hz] and their damping ratios [-] (empty for an estimate).
     description : str
@@ -59,11 +56,17 @@ class Reference(NamedTuple):
     lower: np.ndarray
     upper: np.ndarray
     coherence: np.ndarray
-    band_max: float
     modes: np.ndarray
     damping: np.ndarray
     description: str
     assessable: np.ndarray
+
+    @property
+    def band_max(self) -> float:
+        """Highest frequency the reference can assess [Hz] (the grid's top for the truth,
+        the highest coherent frequency for an estimate; 0 when none is coherent)."""
+        f = self.frequency[self.assessable]
+        return float(f[-1]) if f.size else 0.0
 
 
 def truth_reference(truth: xr.Dataset, pairing: Mapping[str, Any]) -> Reference:
@@ -89,7 +92,7 @@ def truth_reference(truth: xr.Dataset, pairing: Mapping[str, Any]) -> Reference:
     keep = np.isfinite(fm)
     f = np.asarray(truth.frequency.values, dtype=float)
     nan = np.full(g.shape, np.nan)
-    return Reference("truth", f, g, nan, nan, nan, float(f[-1]), fm[keep], zm[keep],
+    return Reference("truth", f, g, nan, nan, nan, fm[keep], zm[keep],
                      "true model (bench model, other loop closed)", np.ones(f.size, bool))
 
 
@@ -126,10 +129,9 @@ def nonparametric_reference(u: np.ndarray | Sequence[np.ndarray],
     # a frequency is assessable where every element's coherence reaches the threshold;
     # elsewhere the estimate is mostly noise and nothing measured there is claimed
     ok = np.all(coh.reshape(len(f), -1) >= npc["coherence_min"], axis=1)
-    band_max = float(f[ok][-1]) if ok.any() else 0.0
     what = ("closed-loop estimate through the reference" if r is not None else "H1 estimate")
     return Reference("nonparametric", f, est.frf[band], est.magnitude_lower[band],
-                     est.magnitude_upper[band], coh, band_max, np.array([]), np.array([]),
+                     est.magnitude_upper[band], coh, np.array([]), np.array([]),
                      f"nonparametric {what} (Welch, {est.n_averages:.0f} averages; assessed "
                      f"where coherence >= {npc['coherence_min']:g}: {100 * ok.mean():.0f} % "
                      f"of {f[0]:.0f}-{f[-1]:.0f} Hz)", ok)
