@@ -40,7 +40,6 @@ Run::
 from __future__ import annotations
 
 import argparse
-import copy
 import sys
 import time
 import tracemalloc
@@ -49,36 +48,21 @@ from pathlib import Path
 import numpy as np
 
 from gbpipe.config import load
-from gbpipe.harmonics import excitation_families, shaft_speed, structural_modes
+from gbpipe.harmonics import excitation_families, method_params, shaft_speed, structural_modes
 from gbpipe.harmonics.removal import METHODS
 from gbpipe.harmonics.separation import separation_metrics
 from gbpipe.harmonics.stage import MODE_MIN_FREQUENCY
 from gbpipe.lti import modes
 from gbpipe.model import bench_ss
-from gbpipe.simulate import sweep
+from gbpipe.simulate import random_only, sweep
 from gbpipe.units import RPM_PER_RAD_S
 
 ROOT = Path(__file__).resolve().parents[1]
 
-#: Parameters of each method on the sweep (their defaults unless tuned here).
-PARAMS = {
-    "tsa": {"n_cycles": 10, "averaging": "quadratic"},
-    "vkf": {"bandwidth": 1.0, "bandwidth_unit": "Hz", "filter_order": 2},
-    "regression": {"knot_spacing": 1.0},
-    "drs": {"segment_revs": 16, "delay_revs": 20},
-    "cepstrum": {"frame_revs": 64},
-}
-
-
 def records(cfg: dict) -> tuple[np.ndarray, np.ndarray, np.ndarray, float, np.ndarray]:
     """Full and random-only sweep signal, pulses, sample rate; checks the seeds."""
     full = sweep(cfg)
-    quiet = copy.deepcopy(cfg)
-    for s in quiet["excitation"]["shaft_orders"]:
-        s["amplitude"] = 0.0
-    for m in quiet["excitation"]["mesh"]:
-        m["amplitude"] = 0.0
-    rnd = sweep(quiet)
+    rnd = sweep(random_only(cfg))
     sig = cfg["spectra"]["signal"]
     clean = sig.removesuffix("_measured")
     same = np.array_equal(full[clean].values, rnd[clean].values)
@@ -155,14 +139,16 @@ def main() -> None:
     ap.add_argument("--config", default=str(ROOT / "config" / "config.yaml"))
     ap.add_argument("--methods", nargs="*", default=list(METHODS))
     ap.add_argument("--peer", default=None, help="directory holding rota-order (GPL)")
-    ap.add_argument("--peer-bandwidth", type=float, default=PARAMS["vkf"]["bandwidth"],
+    ap.add_argument("--peer-bandwidth", type=float, default=1.0,
                     help="rota-order VKF bandwidth [Hz] (doubled once if it refuses)")
     args = ap.parse_args()
     cfg = load(args.config)
     spec = cfg["spectra"]
+    families = excitation_families(cfg)
+    # each method with its parameters of the config's removal section (as the workflow)
+    params = {m: method_params(cfg["removal"], m, families) for m in METHODS}
     x, n, pulses, fs, _ = records(cfg)
     h = x - n
-    families = excitation_families(cfg)
     freq, _ = modes(bench_ss(cfg).A)
     watch = structural_modes(freq, MODE_MIN_FREQUENCY, spec["mode_max_frequency"],
                              spec["mode_half_width"])
@@ -176,8 +162,8 @@ def main() -> None:
               f_max=spec["max_frequency"], pulses_per_rev=ppr)
     rows = {}
     for name in args.methods:
-        r, dt = timed(METHODS[name], x, fs, pulses, families, ppr, **PARAMS[name])
-        rh, peak = traced(METHODS[name], h, fs, pulses, families, ppr, **PARAMS[name])
+        r, dt = timed(METHODS[name], x, fs, pulses, families, ppr, **params[name])
+        rh, peak = traced(METHODS[name], h, fs, pulses, families, ppr, **params[name])
         ds = separation_metrics(r, n, h, fs, pulses, families, watch, harmonic_residual=rh,
                                 **kw)
         rows[name] = report(name, ds, dt, peak, x.size)
@@ -197,8 +183,8 @@ def main() -> None:
         ds = separation_metrics(r, n, h, fs, pulses, families, watch, harmonic_residual=rh,
                                 **kw)
         report(f"rota {bw:g}Hz", ds, dt, peak, x.size)
-        if bw != PARAMS["vkf"]["bandwidth"]:  # ours at the peer's bandwidth, side by side
-            ours = {**PARAMS["vkf"], "bandwidth": bw}
+        if bw != params["vkf"]["bandwidth"]:  # ours at the peer's bandwidth, side by side
+            ours = {**params["vkf"], "bandwidth": bw}
             r, dt = timed(METHODS["vkf"], x, fs, pulses, families, ppr, **ours)
             rh, peak = traced(METHODS["vkf"], h, fs, pulses, families, ppr, **ours)
             ds = separation_metrics(r, n, h, fs, pulses, families, watch,

@@ -66,6 +66,10 @@ rule identify:
         tsa_record=f"{RESULTS}/tsa/tests/{{test}}_{{profile}}.nc",
         tsa_validation=lambda w: (
             f"{RESULTS}/tsa/tests/{VALIDATION_PARTNER[w.test]}_{w.profile}.nc"),
+        # the versions named after a removal method (rules removal_tests)
+        removed=lambda w: [f"{RESULTS}/removal/tests/{m}/{t}_{w.profile}.nc"
+                           for m in REMOVAL_VERSIONS
+                           for t in (w.test, VALIDATION_PARTNER[w.test])],
         truth=rules.model.output.truth,
         code=code("identify.py"),
     params:

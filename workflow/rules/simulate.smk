@@ -18,14 +18,19 @@ rule simulate:
         "../scripts/simulate.py"
 
 
+# the sweep's config slice (also that of sweep_random, removal.smk)
+SWEEP_CFG = {k: config[k] for k in ("seed", "gearbox", "bench", "campaign", "noise",
+                                    "excitation", "tachometer", "sweep")}
+
+
 rule sweep:
     message:
         "Speed sweep at constant torque with harmonics and tachometer pulses"
     input:
         code=code("sweep.py"),
     params:
-        cfg={k: config[k] for k in ("seed", "gearbox", "bench", "campaign", "noise",
-                                    "excitation", "tachometer", "sweep")},
+        cfg=SWEEP_CFG,
+        random_only=False,
     output:
         nc=f"{RESULTS}/sweep/sweep.nc",
     log:

@@ -7,8 +7,8 @@ from gbpipe.identify import identify_record
 snakemake = globals()["snakemake"]
 log = io.setup_log(snakemake.log[0])
 w, cfg, i = snakemake.wildcards, snakemake.params.cfg, snakemake.input
-tsa = io.read(i.tsa_record[0]) if i.tsa_record else None
-ds = identify_record(cfg, io.read(i.record), None, None, w.method, tsa)
+removed = {"tsa": (io.read(i.tsa_record[0]), None)} if i.tsa_record else {}
+ds = identify_record(cfg, io.read(i.record), None, None, w.method, removed)
 io.write(ds, snakemake.output.nc, sources=snakemake.input, stage="identify_measured",
          config=cfg, wildcards={"record": w.record, "method": w.method},
          title=f"{w.method} models of bench record {w.record} vs its nonparametric FRF")

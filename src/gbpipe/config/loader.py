@@ -81,6 +81,7 @@ def validate(cfg: Mapping[str, Any], *, check_stability: bool = True) -> Config:
     records.check_sweep(out)
     processing.check_tsa(out)
     processing.check_spectra(out)
+    processing.check_removal(out)
     identification.check_identify(out)
     measured.check_measured(out)
     if check_stability:

@@ -24,11 +24,14 @@ from scipy.signal import get_window, savgol_coeffs
 
 from gbpipe.config.schema_validation import suggest
 from gbpipe.errors import ConfigError
+from gbpipe.harmonics import cycle_orders, excitation_families, removed_families
+from gbpipe.identify import VERSIONS
 from gbpipe.kinematics import order_of
 from gbpipe.simulate.profiles import sweep_revolutions, test_revolutions
 from gbpipe.simulate.signals import recorded_signals
 
-__all__ = ["MAX_FRAME_BYTES", "REVOLUTION_MARGIN", "check_tsa", "check_spectra"]
+__all__ = ["MAX_FRAME_BYTES", "REVOLUTION_MARGIN", "check_tsa", "check_spectra",
+           "check_removal"]
 
 #: Largest array of spectrum frames [bytes] (float64): 2 GiB.
 MAX_FRAME_BYTES = 2 * 1024**3
@@ -147,4 +150,43 @@ def check_spectra(cfg: Mapping[str, Any]) -> None:
                   round(per_rev / sp["order_resolution"]), sp["overlap"],
                   f"{1 / sp['order_resolution']:g} revolutions",
                   f"use an order resolution of at least {1 / revs:.3g}")
+
+
+def check_removal(cfg: Mapping[str, Any]) -> None:
+    """Check the ``removal`` section and the identification versions that name a method.
+
+    A version beyond :data:`gbpipe.identify.VERSIONS` is a removal method run on the tests: it
+    must be in ``removal.methods``, needs simulated tests (bench records have ``raw`` and
+    ``tsa``) and families to remove (those of ``tsa.tests``, as for ``tsa``). A per-family
+    ``regression.knot_spacing`` may name only excitation families and ``default``, and
+    needs ``default`` unless it names every family.
+    """
+    rem = cfg["removal"]
+    families = excitation_families(cfg)
+    spacing = rem["regression"]["knot_spacing"]
+    if isinstance(spacing, Mapping):
+        for key in spacing:
+            if key != "default" and key not in families:
+                raise ConfigError(f"removal.regression.knot_spacing.{key}",
+                                  f"is not an excitation family; "
+                                  f"{suggest(key, [*families, 'default'])}")
+        missing = [f for f in families if f not in spacing]
+        if missing and "default" not in spacing:
+            raise ConfigError("removal.regression.knot_spacing",
+                              f"gives no spacing for the families {missing}: add 'default'")
+    methods = [v for v in cfg["identify"]["versions"] if v not in VERSIONS]
+    if not methods:
+        return
+    for m in methods:
+        if m not in rem["methods"]:
+            raise ConfigError("identify.versions", f"'{m}' is a removal method not in "
+                              f"removal.methods {rem['methods']}; add it there or drop it")
+    if cfg["measured"]:
+        raise ConfigError("identify.versions", f"{methods}: removal methods other than TSA "
+                          "run on the simulated tests only; use raw and tsa for bench records")
+    cycles = cycle_orders(cfg["gearbox"]["stages"], cfg["tsa"]["tests"])
+    if not removed_families(families, cycles):
+        raise ConfigError("tsa.tests", f"{cfg['tsa']['tests']} removes no excitation family "
+                          f"({sorted(families)}), but identify.versions {methods} remove "
+                          "those of tsa.tests: name a cycle that carries one (e.g. hss)")
 

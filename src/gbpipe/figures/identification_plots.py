@@ -15,8 +15,14 @@ import xarray as xr
 
 from gbpipe.figures.captions import write_caption
 from gbpipe.figures.style import new, save
+from gbpipe.identify import VERSIONS
 
-__all__ = ["fig_bode_identified", "fig_bandwidth", "identification_figures"]
+__all__ = ["fig_bode_identified", "fig_bandwidth", "identification_figures", "version_rank"]
+
+
+def version_rank(version: str) -> tuple[int, str]:
+    """Sort key of a data version: clean, raw, tsa, then the removal methods by name."""
+    return (VERSIONS.index(version), "") if version in VERSIONS else (len(VERSIONS), version)
 
 
 def _db(re: np.ndarray, im: np.ndarray) -> np.ndarray:
@@ -81,7 +87,7 @@ def fig_bandwidth(rows: Sequence[Mapping[str, Any]], stem: str | os.PathLike) ->
     """Heat map of the match bandwidth: pairing x version (rows) vs variant x method."""
 
     ylab = sorted({(r["pairing"], r["version"]) for r in rows},
-                  key=lambda k: (k[0], ["clean", "raw", "tsa"].index(k[1])))
+                  key=lambda k: (k[0], version_rank(k[1])))
     xlab = sorted({(r["test"], r["profile"], r["method"]) for r in rows})
     val = np.full((len(ylab), len(xlab)), np.nan)
     for r in rows:

@@ -27,6 +27,8 @@ Removal beyond TSA (issue 16):
 ``cepstrum``        cepstral editing: comb liftering of the families' rahmonics
 ``removal``         every method behind one signature (``METHODS``: tsa, vkf, ...)
 ``separation``      exact separation metric: attenuation, distortion vs random-only
+``comparison``      what the workflow calls: every method on the sweep, scored
+                    (``removal``, ``removal_table``), and on the tests (``removal_tests``)
 ==================  =====================================================================
 
 Imports only numpy, scipy, xarray and gbpipe's kinematics, units and errors: never the
@@ -36,13 +38,19 @@ bench model or the simulator, so that it runs unchanged on measured records.
 from gbpipe.harmonics.angle import AngleMap, resample_to_angle, resample_to_time
 from gbpipe.harmonics.averaging import AVERAGING, CyclePlan
 from gbpipe.harmonics.cepstrum import residual_cepstrum
+from gbpipe.harmonics.comparison import (
+    compare_method,
+    method_params,
+    method_residuals,
+    removal_rows,
+)
 from gbpipe.harmonics.drs import residual_drs
 from gbpipe.harmonics.families import (
-                                       cycle_orders,
-                                       excitation_families,
-                                       family_orders,
-                                       removed_families,
-                                       structural_modes,
+    cycle_orders,
+    excitation_families,
+    family_orders,
+    removed_families,
+    structural_modes,
 )
 from gbpipe.harmonics.metrics import family_attenuation, mode_band_change, removal_metrics
 from gbpipe.harmonics.regression import residual_regression
@@ -51,19 +59,20 @@ from gbpipe.harmonics.removal import family_cycles, remove_harmonics, residual_t
 from gbpipe.harmonics.separation import separation_metrics
 from gbpipe.harmonics.spectra import order_spectrum, order_spectrum_vs_rpm, power_spectrum_vs_rpm
 from gbpipe.harmonics.stage import (
-                                       record_residuals,
-                                       remove,
-                                       sweep_waterfalls,
-                                       tsa_variant,
-                                       variant_metrics,
-                                       waterfalls,
+    record_residuals,
+    remove,
+    split_residuals,
+    sweep_waterfalls,
+    tsa_variant,
+    variant_metrics,
+    waterfalls,
 )
 from gbpipe.harmonics.tacho import (
-                                       PulseCheck,
-                                       check_pulse_times,
-                                       pulse_times_from_tacho,
-                                       shaft_angle,
-                                       shaft_speed,
+    PulseCheck,
+    check_pulse_times,
+    pulse_times_from_tacho,
+    shaft_angle,
+    shaft_speed,
 )
 from gbpipe.harmonics.tracking import order_amplitudes
 from gbpipe.harmonics.tsa import JointInfo, TSAInfo, residual, residual_joint, synchronous_average
@@ -87,5 +96,6 @@ __all__ = [
     "separation_metrics",
     # workflow stages
     "remove", "waterfalls", "variant_metrics", "sweep_waterfalls", "tsa_variant",
-    "record_residuals",
+    "record_residuals", "split_residuals", "compare_method", "method_params",
+    "method_residuals", "removal_rows",
 ]

@@ -22,6 +22,7 @@ interval)`` are told apart only through the joint fit, at the cost of noise gain
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from typing import Literal
 
 import numpy as np
@@ -32,7 +33,7 @@ from gbpipe.harmonics.checks import as_count, as_positive
 from gbpipe.harmonics.removal_inputs import Families, removal_inputs
 from gbpipe.harmonics.tacho import AngleMethod
 
-__all__ = ["AmplitudeBasis", "residual_regression"]
+__all__ = ["AmplitudeBasis", "family_groups", "residual_regression"]
 
 
 class AmplitudeBasis:
@@ -109,10 +110,36 @@ def _local_design(basis: AmplitudeBasis, t: np.ndarray, phases: np.ndarray,
     return design, first * trig.shape[1]
 
 
+def family_groups(families: Families, spacing: Mapping[str, float]
+                  ) -> list[tuple[float, dict]]:
+    """Families grouped by their knot spacing [s], finest first.
+
+    Raises
+    ------
+    ValueError
+        A key that is neither a family nor ``default``, a family with no spacing (and no
+        ``default``), or a spacing that is not positive.
+    """
+    unknown = sorted(set(spacing) - set(families) - {"default"})
+    if unknown:
+        raise ValueError(f"knot_spacing names {unknown}, which are not families "
+                         f"({sorted(families)}) nor 'default'")
+    groups: dict[float, dict] = {}
+    for name, orders in families.items():
+        if name not in spacing and "default" not in spacing:
+            raise ValueError(f"knot_spacing has no entry for family {name!r} and no "
+                             f"'default': add one")
+        h = as_positive(spacing.get(name, spacing.get("default")),
+                        f"knot_spacing[{name!r}]", "s")
+        groups.setdefault(h, {})[name] = orders
+    return sorted(groups.items())
+
+
 def residual_regression(x: np.ndarray, fs: float, pulse_times: np.ndarray,
                         families: Families, pulses_per_rev: int = 1, *,
                         basis: Literal["bspline", "legendre"] = "bspline",
-                        knot_spacing: float = 1.0, degree: int = 3, ridge: float = 1e-10,
+                        knot_spacing: float | Mapping[str, float] = 1.0, degree: int = 3,
+                        ridge: float = 1e-10,
                         block: int = 8192, t0: float = 0.0,
                         method: AngleMethod = "pchip") -> np.ndarray:
     """Remove order families by joint least-squares regression on the shaft angle.
@@ -124,10 +151,15 @@ def residual_regression(x: np.ndarray, fs: float, pulse_times: np.ndarray,
         All orders of all families are fitted together.
     basis : {"bspline", "legendre"}
         Basis of the amplitudes in time (module notes).
-    knot_spacing : float
+    knot_spacing : float or mapping str -> float
         Knot distance of the B-spline basis [s]: amplitude and phase changes faster than
         about this are not followed (a resonance crossing lasts ``2 zeta f_mode /
-        sweep rate`` s).
+        sweep rate`` s). A mapping gives it per family (key: family name, or ``default``
+        for the others): families with one spacing are fitted jointly, the groups one after
+        the other, finest first. Why per family: each fitted amplitude also takes the
+        random part within about ``1 / knot_spacing`` Hz of its order, and low orders,
+        whose frequency moves slowly through a resonance, need fewer knots than
+        mesh orders -- a coarser basis there removes less of the broadband response.
     degree : int
         Spline degree (bspline), or highest Legendre degree (legendre).
     ridge : float
@@ -146,6 +178,13 @@ def residual_regression(x: np.ndarray, fs: float, pulse_times: np.ndarray,
     ValueError
         Unknown basis, or non-positive knot spacing or ridge.
     """
+    if isinstance(knot_spacing, Mapping):
+        out = np.asarray(x, dtype=float)
+        for spacing, group in family_groups(families, knot_spacing):
+            out = residual_regression(out, fs, pulse_times, group, pulses_per_rev,
+                                      basis=basis, knot_spacing=spacing, degree=degree,
+                                      ridge=ridge, block=block, t0=t0, method=method)
+        return out
     rec, _, orders = removal_inputs(x, fs, pulse_times, families, pulses_per_rev, t0, method)
     knot_spacing = as_positive(knot_spacing, "knot_spacing", "s")
     ridge = as_positive(ridge, "ridge", "relative units")

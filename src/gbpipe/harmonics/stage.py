@@ -4,7 +4,8 @@
 * :func:`tsa_variant` -- rule ``tsa``: one TSA variant on the sweep (residual, its
   waterfalls, removal metrics, and the plain cascade beside a joint removal);
 * :func:`record_residuals` -- rule ``tsa_tests``: measured-like signals of a test record
-  after removal of the ``tsa.tests`` families, for identification;
+  after removal of the ``tsa.tests`` families, for identification (any removal method:
+  :func:`split_residuals`);
 * :func:`remove`, :func:`waterfalls`, :func:`variant_metrics` -- their building blocks.
 
 Inputs and outputs follow the data contract of docs/architecture.md ("Data contract");
@@ -14,7 +15,7 @@ the configuration is read without fallbacks (defaults are applied when it is loa
 from __future__ import annotations
 
 import logging
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from fractions import Fraction
 from typing import Any
 
@@ -34,7 +35,7 @@ from gbpipe.harmonics.tsa import residual, residual_joint
 from gbpipe.io import longest_segment, mean_shaft_frequency, measured_signal
 
 __all__ = ["waterfalls", "remove", "variant_metrics", "sweep_waterfalls", "tsa_variant",
-           "record_residuals", "MODE_MIN_FREQUENCY"]
+           "split_residuals", "record_residuals", "MODE_MIN_FREQUENCY"]
 
 log = logging.getLogger(__name__)
 
@@ -207,6 +208,66 @@ def tsa_variant(sweep: xr.Dataset, bench: xr.Dataset, variant: str,
     return ds
 
 
+def split_residuals(record: xr.Dataset, names: Sequence[str],
+                    remove_fn: Callable[[np.ndarray, float, np.ndarray, int], np.ndarray],
+                    lowest_order: float | None, keep_below: float,
+                    what: str) -> xr.Dataset:
+    """Measured-like signals of a record after a harmonic removal, above a low split.
+
+    Parameters
+    ----------
+    record : xarray.Dataset
+        A test record (``<name>_measured``) or a measured record (``<name>``;
+        :func:`gbpipe.io.measured_signal`), with ``pulse_time`` of the GB1 HSS tacho and
+        attributes ``sample_rate``, ``pulses_per_rev``; its longest gap-free piece is used.
+    names : sequence of str
+        Signal names (without ``_measured``).
+    remove_fn : callable
+        ``remove_fn(x, fs, pulse_times, pulses_per_rev) -> residual``.
+    lowest_order : float or None
+        Lowest removed order [HSS orders]; None: nothing is removed.
+    keep_below : float
+        The removal acts only on the part of each signal above ``keep_below`` times
+        ``lowest_order`` at the record's mean HSS speed (split by a zero-phase Butterworth
+        low-pass; the low part is added back unchanged; 0 disables the split). Why: a TSA
+        block's mean cycle also averages whatever else is in the block; for a step test
+        that is the bench's slow step response, whose trend inside a 10-cycle block
+        becomes a sawtooth at the cycle rate in the mean cycle, and whose block means
+        form a staircase -- subtracting both would inject broadband errors far larger than
+        the harmonics. Every harmonic lies at or above the lowest order, so the split
+        loses none of them.
+    what : str
+        What was removed (long names).
+
+    Returns
+    -------
+    xarray.Dataset
+        One variable per name (time) in the unit of the signal; attributes ``test``,
+        ``profile``, ``sample_rate``.
+    """
+    record = longest_segment(record)
+    fs = float(record.attrs["sample_rate"])
+    pulses = np.asarray(record["pulse_time"].values, dtype=float)
+    ppr = int(record.attrs["pulses_per_rev"])
+    sos = None
+    if lowest_order is not None and keep_below > 0:
+        f_low = keep_below * lowest_order * mean_shaft_frequency(record)
+        sos = signal.butter(6, f_low, fs=fs, output="sos")
+    ds = xr.Dataset(coords={"time": ("time", record.time.values,
+                                     {"units": "s", "long_name": "time from record start"})})
+    for name in names:
+        measured = measured_signal(record, name)
+        x = np.asarray(measured.values, dtype=float)
+        if lowest_order is not None:
+            low = signal.sosfiltfilt(sos, x) if sos is not None else np.zeros_like(x)
+            x = low + remove_fn(x - low, fs, pulses, ppr)
+        ds[name] = ("time", x, {"units": measured.attrs.get("units", "1"),
+                                "long_name": f"{name}, measured-like after {what}"})
+    ds.attrs.update(test=str(record.attrs.get("test", "")),
+                    profile=str(record.attrs.get("profile", "")), sample_rate=fs)
+    return ds
+
+
 def record_residuals(record: xr.Dataset, names: Sequence[str],
                      stages: Sequence[Mapping[str, Any]], tsa_cfg: Mapping[str, Any],
                      keep_below: float) -> xr.Dataset:
@@ -214,58 +275,27 @@ def record_residuals(record: xr.Dataset, names: Sequence[str],
 
     Parameters
     ----------
-    record : xarray.Dataset
-        A test record (``<name>_measured``, ``speed_gb1_hss`` [rad/s]) or a measured record
-        (``<name>``; :func:`measured_signal`), with ``pulse_time`` of the GB1 HSS tacho and
-        attributes ``sample_rate``, ``pulses_per_rev``.
-    names : sequence of str
-        Signal names (without ``_measured``).
+    record, names, keep_below
+        As :func:`split_residuals` (``keep_below`` times the lowest removed cycle).
     stages : sequence of mapping
         Gearbox stages (for the exact cycle orders).
     tsa_cfg : mapping
         ``cfg["tsa"]``: ``tests`` (cycle names), ``n_cycles``, ``unbiased``.
-    keep_below : float
-        TSA acts only on the part of each signal above ``keep_below`` times the lowest
-        removed cycle frequency at the record's mean HSS speed (split by a zero-phase
-        Butterworth low-pass; the low part is added back unchanged; 0 disables the split).
-        Why: each block's mean cycle also averages whatever else is in the block; for a
-        step test that is the bench's slow step response, whose trend inside a 10-cycle
-        block becomes a sawtooth at the cycle rate in the mean cycle, and whose block
-        means form a staircase -- subtracting both would inject broadband errors far
-        larger than the harmonics. Every harmonic lies at or above the lowest cycle
-        frequency, so the split loses none of them.
 
     Returns
     -------
     xarray.Dataset
-        One variable per name (time) in the unit of the signal; attributes ``test``,
-        ``profile``, ``sample_rate``, ``removed_cycles``, ``n_cycles``.
+        :func:`split_residuals`, with attributes ``removed_cycles`` and ``n_cycles``.
     """
-    record = longest_segment(record)
-    fs = float(record.attrs["sample_rate"])
-    pulses = np.asarray(record["pulse_time"].values, dtype=float)
-    ppr = int(record.attrs["pulses_per_rev"])
     cycles = cycle_orders(stages, tsa_cfg["tests"])
-    removed = ", ".join(tsa_cfg["tests"])
-    sos = None
-    if cycles and keep_below > 0:
-        f_hss = mean_shaft_frequency(record)
-        f_low = keep_below * min(float(c) for c in cycles) * f_hss
-        sos = signal.butter(6, f_low, fs=fs, output="sos")
-    ds = xr.Dataset(coords={"time": ("time", record.time.values,
-                                     {"units": "s", "long_name": "time from record start"})})
-    for name in names:
-        measured = measured_signal(record, name)
-        x = np.asarray(measured.values, dtype=float)
-        if cycles:
-            low = signal.sosfiltfilt(sos, x) if sos is not None else np.zeros_like(x)
-            x = low + residual_joint(x - low, fs, pulses, cycles, int(tsa_cfg["n_cycles"]),
-                                     ppr, unbiased=bool(tsa_cfg["unbiased"]), outside="keep")
-        ds[name] = ("time", x, {"units": measured.attrs.get("units", "1"),
-                                "long_name": f"{name}, measured-like after TSA removal of "
-                                             f"{removed}"})
-    ds.attrs.update(test=str(record.attrs.get("test", "")),
-                    profile=str(record.attrs.get("profile", "")),
-                    sample_rate=fs, removed_cycles=",".join(tsa_cfg["tests"]),
-                    n_cycles=int(tsa_cfg["n_cycles"]))
+    n_cycles, unbiased = int(tsa_cfg["n_cycles"]), bool(tsa_cfg["unbiased"])
+
+    def tsa(x: np.ndarray, fs: float, pulses: np.ndarray, ppr: int) -> np.ndarray:
+        return residual_joint(x, fs, pulses, cycles, n_cycles, ppr, unbiased=unbiased,
+                              outside="keep")
+
+    lowest = min(float(c) for c in cycles) if cycles else None
+    ds = split_residuals(record, names, tsa, lowest, keep_below,
+                         f"TSA removal of {', '.join(tsa_cfg['tests'])}")
+    ds.attrs.update(removed_cycles=",".join(tsa_cfg["tests"]), n_cycles=n_cycles)
     return ds

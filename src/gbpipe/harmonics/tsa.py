@@ -363,6 +363,11 @@ def residual_joint(
             change += float(np.sum(d**2))
         rel = np.sqrt(change / x_power)
         history.append(rel)
+        if not rel < 1e3:  # diverging (a quadratic fit is no projection): garbage, not a result
+            raise ValueError(
+                f"residual_joint diverged at pass {iterations} (relative change {rel:.2g}): "
+                f"the families' {averaging!r} averages do not separate on this record; use "
+                f"averaging 'block' or 'sliding', or mode 'cascade'")
         if mode == "joint" and iterations > 1 and rel < tol:
             converged = True
             break

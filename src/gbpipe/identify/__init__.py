@@ -1,13 +1,14 @@
 """Identification stage: subspace models of the bench from test records vs the true model.
 
 The true FRFs and modes come from the model stage's ``truth.nc`` (data, not model code);
-the records after harmonic removal from the ``tsa_tests`` stage
+the records after harmonic removal from the ``tsa_tests`` and ``removal_tests`` stages
 (:func:`gbpipe.harmonics.record_residuals`). See docs/architecture.md, "Stage graph".
 
 Public API
 ----------
-identify_record(cfg, record, validation, truth, method, tsa_record, tsa_validation)
-    Every configured pairing x data version (clean, raw, tsa) of one record, one method;
+identify_record(cfg, record, validation, truth, method, removed)
+    Every configured pairing x data version (clean, raw, tsa, or a removal method) of one
+    record, one method;
     ``truth`` and ``validation`` None for a measured record (held-out end, nonparametric
     reference).
 table_rows(datasets)

@@ -1,15 +1,19 @@
 """Records -> identification data: operating point, anti-aliased decimation, harmonic removal.
 
-Three data versions of a record are identified (``VERSIONS``):
+The data versions of a record (``VERSIONS``, plus one per removal method named in
+``identify.versions``):
 
 * ``clean``: the simulated signals without harmonics or sensor noise;
 * ``raw``: the measured-like signals (``<name>_measured``: shaft and mesh harmonics plus
   sensor noise), as a bench would log them;
 * ``tsa``: the measured-like signals after removal of the configured harmonic families
   (``tsa.tests``) by joint block time-synchronous averaging with the record's own GB1 HSS
-  tachometer (the ``tsa_tests`` stage, :func:`gbpipe.harmonics.record_residuals`).
+  tachometer (the ``tsa_tests`` stage, :func:`gbpipe.harmonics.record_residuals`);
+* ``vkf``, ``regression``, ``drs``, ``cepstrum``: the measured-like signals after removal
+  of the same families by that method (the ``removal_tests`` stage,
+  :mod:`gbpipe.harmonics.removal`).
 
-All three then go through the same :func:`condition`: subtract the operating point (the
+All of them then go through the same :func:`condition`: subtract the operating point (the
 mean over the initial steady-state ``settle`` seconds, *not* the record mean: the
 torque -> speed model has a rigid-body integrator, and the record mean of a step test is
 not an equilibrium) and decimate with a causal linear-phase FIR anti-aliasing filter.
@@ -33,7 +37,8 @@ from gbpipe.io import measured_signal
 __all__ = ["VERSIONS", "VALIDATION_PARTNER", "operating_point", "decimation_filter",
            "decimate", "condition", "version_signals"]
 
-#: Data versions identified for every record.
+#: Data versions that need no removal method of their own (``tsa`` is the paper's TSA of
+#: ``tsa.tests``); any other version names a ``removal`` method run on the tests.
 VERSIONS = ("clean", "raw", "tsa")
 
 #: Validation record of each test: the mirror test of the same profile, never seen in fitting.
@@ -156,39 +161,42 @@ def condition(signals: Sequence[np.ndarray], fs: float, settle: float, fs_out: f
 
 
 def version_signals(ds: xr.Dataset, names: Sequence[str], version: str,
-                    tsa_ds: xr.Dataset | None = None) -> list[np.ndarray]:
+                    removed: xr.Dataset | None = None) -> list[np.ndarray]:
     """The signals of one data version of a record (SI units, record rate).
 
     Parameters
     ----------
     ds : xarray.Dataset
-        Simulated record.
+        Simulated or measured record.
     names : sequence of str
         Signal names.
-    version : {"clean", "raw", "tsa"}
-    tsa_ds : xarray.Dataset, optional
-        Output of the ``tsa_tests`` stage for this record (needed for ``tsa``).
+    version : str
+        ``clean``, ``raw``, or a harmonic-removal version (``tsa``, ``vkf``, ...) whose
+        output for this record is ``removed``.
+    removed : xarray.Dataset, optional
+        The record after harmonic removal (``tsa_tests`` or ``removal_tests`` output:
+        one variable per signal); needed for every version but ``clean`` and ``raw``.
 
     Raises
     ------
     ValueError
-        Unknown version, or ``tsa`` without ``tsa_ds``.
+        A removal version without ``removed``, or ``clean`` of a measured record.
     gbpipe.errors.DataError
         A signal missing from the record.
     """
-    if version not in VERSIONS:
-        raise ValueError(f"unknown data version {version!r}; use one of {', '.join(VERSIONS)}")
-    if version == "tsa":
-        if tsa_ds is None:
-            raise ValueError("version 'tsa' needs the tsa_tests output of the record (tsa_ds)")
-        src = [tsa_ds[n] if n in tsa_ds else None for n in names]
-    elif version == "raw":
+    if version == "raw":
         src = [measured_signal(ds, n) for n in names]
-    else:
+    elif version == "clean":
         if ds.attrs.get("record_kind") == "measured":
             raise ValueError("version 'clean' exists only for simulated records: a measured "
                              "record has raw (and tsa) data; set identify.versions")
         src = [ds[n] if n in ds else None for n in names]
+    else:
+        if removed is None:
+            raise ValueError(f"version {version!r} needs the harmonic-removal output of the "
+                             f"record (removed); versions: {', '.join(VERSIONS)} or a "
+                             f"removal method")
+        src = [removed[n] if n in removed else None for n in names]
     out = []
     for n, da in zip(names, src, strict=True):
         if da is None:

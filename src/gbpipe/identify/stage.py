@@ -74,8 +74,8 @@ def holdout_split(x: np.ndarray, share: float) -> tuple[np.ndarray, np.ndarray]:
 
 def identify_record(cfg: Mapping[str, Any], record: xr.Dataset,
                     validation: xr.Dataset | None, truth: xr.Dataset | None, method: str,
-                    tsa_record: xr.Dataset | None = None,
-                    tsa_validation: xr.Dataset | None = None) -> xr.Dataset:
+                    removed: Mapping[str, tuple[xr.Dataset, xr.Dataset | None]]
+                    | None = None) -> xr.Dataset:
     """Identify every configured pairing x data version of one record with one method.
 
     Parameters
@@ -93,9 +93,11 @@ def identify_record(cfg: Mapping[str, Any], record: xr.Dataset,
         for a measured record: each model is scored against the nonparametric FRF of the
         same data in its coherent band (:mod:`gbpipe.identify.reference`).
     method : {"pbsid", "moesp", "n4sid"}
-    tsa_record, tsa_validation : xarray.Dataset, optional
-        ``tsa_tests`` outputs of both records (required for the ``tsa`` version;
-        ``tsa_validation`` only with a validation record).
+    removed : mapping str -> (xarray.Dataset, xarray.Dataset or None), optional
+        Per harmonic-removal version (``tsa``, ``vkf``, ...): the record and the
+        validation record after that removal (``tsa_tests`` or ``removal_tests``
+        outputs; the second None without a validation record). Required for every
+        version in ``identify.versions`` but ``clean`` and ``raw``.
 
     Returns
     -------
@@ -106,7 +108,7 @@ def identify_record(cfg: Mapping[str, Any], record: xr.Dataset,
     Raises
     ------
     ValueError
-        Unknown method, or ``tsa`` version without the ``tsa_tests`` outputs.
+        Unknown method, or a removal version without its records in ``removed``.
     gbpipe.errors.StageError
         Every row failed (the message lists each failure).
     """
@@ -114,26 +116,30 @@ def identify_record(cfg: Mapping[str, Any], record: xr.Dataset,
     record = longest_segment(record)  # a split bench record: its longest piece
     if method not in METHODS:
         raise ValueError(f"unknown method {method!r}; use {', '.join(METHODS)}")
-    if "tsa" in s["versions"] and (tsa_record is None or
-                                   (validation is not None and tsa_validation is None)):
-        raise ValueError("version 'tsa' needs tsa_record and tsa_validation (tsa_tests outputs)")
+    removed = dict(removed or {})
+    for version in s["versions"]:
+        if version in ("clean", "raw"):
+            continue
+        if version not in removed or (validation is not None and removed[version][1] is None):
+            raise ValueError(f"version {version!r} needs the record and validation record "
+                             f"after that harmonic removal (removed[{version!r}])")
     fs = float(record.attrs["sample_rate"])
     settle = float(cfg["campaign"]["settle"])
     fs_id = float(s["sample_rate"])
     dt = 1.0 / fs_id
 
     def prepared(ds: xr.Dataset | None, names: list[str], version: str,
-                 tsa_ds: xr.Dataset | None) -> np.ndarray | None:
+                 removed_ds: xr.Dataset | None) -> np.ndarray | None:
         if ds is None:
             return None
-        return condition(version_signals(ds, names, version, tsa_ds), fs, settle, fs_id,
+        return condition(version_signals(ds, names, version, removed_ds), fs, settle, fs_id,
                          s["lowpass"])
 
     results = []
     for p in s["pairings"]:
         ref_truth = truth_reference(truth, p) if truth is not None else None
         for version in s["versions"]:
-            tr, tv = (tsa_record, tsa_validation) if version == "tsa" else (None, None)
+            tr, tv = removed.get(version, (None, None))
             u, y = (prepared(record, p[k], version, tr) for k in ("inputs", "outputs"))
             uv, yv = (prepared(validation, p[k], version, tv) for k in ("inputs", "outputs"))
             # a mapped set-point of a closed-loop bench record: the nonparametric estimate

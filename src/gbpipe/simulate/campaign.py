@@ -245,3 +245,24 @@ def sweep(cfg: Mapping[str, Any]) -> xr.Dataset:
     ds["rpm"] = ("time", ds.speed_gb1_hss.values / RPM,
                  {"units": "rev/min", "long_name": "GB1 HSS speed"})
     return _attrs(ds, cfg, test="sweep", sample_rate=float(cfg["sweep"]["sample_rate"]))
+
+
+def random_only(cfg: Mapping[str, Any]) -> dict[str, Any]:
+    """The configuration with every angle-locked excitation switched off, nothing else.
+
+    Simulating it (:func:`sweep`, :func:`test`) gives the *random-only* record of the
+    exact separation metric (:mod:`gbpipe.harmonics.separation`): the motor ripple and
+    sensor noise come from ``SeedSequence(seed, key)`` and are drawn before, and
+    independently of, the excitation, whose phases have their own generator
+    (``excitation.seed``) and are drawn for every configured order whatever its
+    amplitude; a zero amplitude only zeroes the excitation input, whose response is then
+    exactly zero. So ``record - random_only`` is exactly the harmonic part.
+    """
+    exc = cfg["excitation"]
+    quiet = {
+        **exc,
+        "shaft_orders": [{**s, "amplitude": 0.0} for s in exc["shaft_orders"]],
+        "mesh": [{**m, "amplitude": 0.0} for m in exc["mesh"]],
+    }
+    return {**cfg, "excitation": quiet}
+

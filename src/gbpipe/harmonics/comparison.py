@@ -1,0 +1,204 @@
+"""The removal-comparison stage: every harmonic-removal method on the same sweep, scored
+by the exact separation metric.
+
+* :func:`method_params` -- a method's keyword arguments from the ``removal`` config
+  section, fitted to the families at hand;
+* :func:`compare_method` -- rule ``removal``: one method on the sweep and on its known
+  harmonic part, its wall time, and :func:`gbpipe.harmonics.separation_metrics` against
+  the random-only sweep;
+* :func:`removal_rows` -- rule ``removal_table``: one row per method x family x rpm bin x
+  band;
+* :func:`method_residuals` -- rule ``removal_tests``: the measured-like signals of a test
+  after one method, for identification (the version named after the method).
+
+The random-only sweep is the same simulation with every excitation amplitude at zero
+(:func:`gbpipe.simulate.random_only`), so ``sweep - random_only`` is the harmonic part,
+exactly.
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+import tracemalloc
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+import numpy as np
+import xarray as xr
+
+from gbpipe.errors import DataError
+from gbpipe.harmonics.families import structural_modes
+from gbpipe.harmonics.metrics import Families
+from gbpipe.harmonics.removal import remove_harmonics
+from gbpipe.harmonics.separation import separation_metrics
+from gbpipe.harmonics.stage import MODE_MIN_FREQUENCY, split_residuals
+
+__all__ = ["method_params", "compare_method", "removal_rows", "method_residuals"]
+
+log = logging.getLogger(__name__)
+
+
+def method_params(removal_cfg: Mapping[str, Any], method: str,
+                  families: Families) -> dict[str, Any]:
+    """Keyword arguments of ``method`` from ``cfg["removal"][method]``.
+
+    A per-family ``knot_spacing`` of the regression keeps the families at hand (and
+    ``default``): the tests remove fewer families than the sweep.
+    """
+    params = dict(removal_cfg[method])
+    spacing = params.get("knot_spacing")
+    if isinstance(spacing, Mapping):
+        params["knot_spacing"] = {k: v for k, v in spacing.items()
+                                  if k in families or k == "default"}
+    return params
+
+
+def compare_method(sweep: xr.Dataset, random_only: xr.Dataset, bench: xr.Dataset,
+                   method: str, params: Mapping[str, Any], families: Families,
+                   spec: Mapping[str, Any]) -> xr.Dataset:
+    """One removal method on the sweep, scored against the random-only sweep.
+
+    Parameters
+    ----------
+    sweep, random_only : xarray.Dataset
+        The sweep and the same simulation without the angle-locked excitation
+        (``spec["signal"]``, ``pulse_time`` [s], attributes ``sample_rate``,
+        ``pulses_per_rev``); the pulses of ``sweep`` are used for both.
+    bench : xarray.Dataset
+        The bench model output (``closed_mode_frequency`` [Hz]): the modes to watch.
+    method : str
+        A name of :data:`gbpipe.harmonics.removal.METHODS`.
+    params : mapping
+        The method's keyword arguments (:func:`method_params`).
+    families : mapping str -> orders
+        The families removed [HSS orders] (:func:`gbpipe.harmonics.excitation_families`).
+    spec : mapping
+        ``cfg["spectra"]``: ``signal``, ``metric_rpm_bins``, ``mode_half_width``,
+        ``mode_max_frequency``, ``max_frequency``.
+
+    Returns
+    -------
+    xarray.Dataset
+        :func:`gbpipe.harmonics.separation_metrics` (with ``leftover_db``), the residual
+        (time) in the unit of the signal, and attributes ``method``, ``runtime_s`` (wall
+        time of the method on the record [s]), ``peak_memory_mb`` and ``bytes_per_sample``
+        (traced peak of the run on the harmonic part [MB], and per sample), ``params`` and
+        ``families``.
+
+    Raises
+    ------
+    DataError
+        The two sweeps differ in length or sample rate (not the same simulation).
+    """
+    name = spec["signal"]
+    sig = sweep[name]
+    x = np.asarray(sig.values, dtype=float)
+    n = np.asarray(random_only[name].values, dtype=float)
+    fs = float(sweep.attrs["sample_rate"])
+    if n.shape != x.shape or float(random_only.attrs["sample_rate"]) != fs:
+        raise DataError("random-only sweep", f"has {n.size} samples at "
+                        f"{random_only.attrs['sample_rate']} Hz, the sweep {x.size} at {fs} Hz:"
+                        " simulate both from the same config (rule sweep_random)")
+    pulses = np.asarray(sweep.pulse_time.values, dtype=float)
+    ppr = int(sweep.attrs["pulses_per_rev"])
+    modes = structural_modes(bench.closed_mode_frequency.values, MODE_MIN_FREQUENCY,
+                             spec["mode_max_frequency"], spec["mode_half_width"])
+    log.info("%s on %d samples, families %s, params %s", method, x.size, list(families),
+             dict(params))
+    start = time.perf_counter()
+    r = remove_harmonics(method, x, fs, pulses, families, ppr, **params)
+    runtime = time.perf_counter() - start
+    h = x - n
+    # the second run (on the harmonic part) is traced: numpy allocates through tracemalloc
+    tracemalloc.start()
+    rh = remove_harmonics(method, h, fs, pulses, families, ppr, **params)
+    peak = tracemalloc.get_traced_memory()[1]
+    tracemalloc.stop()
+    ds = separation_metrics(r, n, h, fs, pulses, families, modes,
+                            rpm_bins=spec["metric_rpm_bins"],
+                            half_width=spec["mode_half_width"],
+                            f_max=spec["max_frequency"], pulses_per_rev=ppr,
+                            harmonic_residual=rh)
+    ds["residual"] = ("time", r, {"units": sig.attrs["units"],
+                                  "long_name": f"{method} residual of {sig.attrs['long_name']}"})
+    ds = ds.assign_coords(time=sweep.time)
+    ds.attrs.update(method=method, runtime_s=runtime, peak_memory_mb=peak / 1e6,
+                    bytes_per_sample=peak / x.size, params=repr(dict(params)),
+                    families=" ".join(families), signal=name)
+    mode_bands = ds.band != "elsewhere"
+    log.info("%s: %.2f s, peak %.0f MB; worst-bin attenuation %s dB; worst mode-band level "
+             "change %.2f dB",
+             method, runtime, peak / 1e6, ", ".join(
+                 f"{f} {float(v):.1f}" for f, v in zip(
+                     ds.family.values, ds.leftover_db.min("rpm").values, strict=True)),
+             float(np.abs(ds.change_db.sel(band=mode_bands)).max()))
+    return ds
+
+
+def removal_rows(datasets: Sequence[xr.Dataset]) -> list[dict[str, Any]]:
+    """One row per method x family x rpm bin x band of :func:`compare_method` outputs.
+
+    Columns: ``method``, ``family``, ``band``, ``rpm``, ``rpm_lower``, ``rpm_upper``
+    [rev/min], ``band_lower``, ``band_upper`` [Hz], ``attenuation_db`` (of the family, on
+    the sweep, against the harmonic part), ``leftover_db`` (the method on the harmonic
+    part alone), ``distortion_db`` and ``change_db`` (the band, against the random-only
+    sweep) [dB], ``crossing`` (1 where an order of the family passes through the band),
+    ``runtime_s``.
+    """
+    rows = []
+    for ds in datasets:
+        fams, bands = [str(f) for f in ds.family.values], [str(b) for b in ds.band.values]
+        att = ds.attenuation_db.transpose("family", "rpm").values
+        left = ds.leftover_db.transpose("family", "rpm").values
+        dist = ds.distortion_db.transpose("band", "rpm").values
+        change = ds.change_db.transpose("band", "rpm").values
+        cross = ds.crossing.transpose("family", "band", "rpm").values
+        for k, fam in enumerate(fams):
+            for i, rpm in enumerate(ds.rpm.values):
+                for b, band in enumerate(bands):
+                    rows.append({
+                        "method": ds.attrs["method"], "family": fam, "band": band,
+                        "rpm": float(rpm), "rpm_lower": float(ds.rpm_lower[i]),
+                        "rpm_upper": float(ds.rpm_upper[i]),
+                        "band_lower": float(ds.band_lower[b]),
+                        "band_upper": float(ds.band_upper[b]),
+                        "attenuation_db": float(att[k, i]), "leftover_db": float(left[k, i]),
+                        "distortion_db": float(dist[b, i]), "change_db": float(change[b, i]),
+                        "crossing": int(cross[k, b, i]),
+                        "runtime_s": float(ds.attrs["runtime_s"]),
+                    })
+    return rows
+
+
+def method_residuals(record: xr.Dataset, names: Sequence[str], method: str,
+                     params: Mapping[str, Any], families: Families,
+                     keep_below: float) -> xr.Dataset:
+    """Measured-like signals of a record after one removal method (``removal_tests``).
+
+    Parameters
+    ----------
+    record, names, keep_below
+        As :func:`gbpipe.harmonics.split_residuals` (``keep_below`` times the lowest
+        removed order, as for TSA, so every version sees the same low part).
+    method : str
+        A name of :data:`gbpipe.harmonics.removal.METHODS`.
+    params : mapping
+        Its keyword arguments (:func:`method_params`).
+    families : mapping str -> orders
+        The families removed [HSS orders].
+
+    Returns
+    -------
+    xarray.Dataset
+        One variable per name (time); attributes ``method``, ``families``, ``params``.
+    """
+    def remove(x: np.ndarray, fs: float, pulses: np.ndarray, ppr: int) -> np.ndarray:
+        return remove_harmonics(method, x, fs, pulses, families, ppr, **params)
+
+    lowest = min(float(o) for orders in families.values() for o in orders)
+    ds = split_residuals(record, names, remove, lowest, keep_below,
+                         f"{method} removal of {', '.join(families)}")
+    ds.attrs.update(method=method, families=" ".join(families), params=repr(dict(params)))
+    return ds
+

@@ -1,0 +1,104 @@
+"""Tests of gbpipe.harmonics.comparison (the removal-comparison stage) on the synthetic
+sweep of :mod:`harmonic_sweeps`, whose harmonic and broadband parts are known exactly:
+the broadband part is the 62 Hz resonance response to white noise, the harmonics are
+lines of known amplitude at exact HSS and mesh orders."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import xarray as xr
+from harmonic_sweeps import HSS_LINES, MESH_LINES
+
+from gbpipe.harmonics import compare_method, method_params, method_residuals, removal_rows
+
+SPEC = {"signal": "torque_meter_driven_measured", "metric_rpm_bins": 4,
+        "mode_half_width": 4.0, "mode_max_frequency": 400.0, "max_frequency": 700.0}
+
+
+def _records(sw: dict) -> tuple[xr.Dataset, xr.Dataset, xr.Dataset]:
+    """The sweep, its random-only twin and a bench dataset holding the 62 Hz mode."""
+    attrs = {"sample_rate": sw["fs"], "pulses_per_rev": 1}
+    units = {"units": "N m", "long_name": "GB1 torque meter, measured-like"}
+
+    def record(x: np.ndarray) -> xr.Dataset:
+        return xr.Dataset({SPEC["signal"]: ("time", x, units),
+                           "pulse_time": ("pulse", sw["pulses"], {"units": "s"})},
+                          coords={"time": ("time", sw["t"], {"units": "s"})}, attrs=attrs)
+
+    bench = xr.Dataset({"closed_mode_frequency": ("closed_mode", [1.0, 62.0, 900.0])})
+    return record(sw["x"]), record(sw["res"]), bench
+
+
+def _families(sw: dict) -> dict:
+    return {"shaft": [k for k, _, _ in HSS_LINES],
+            "mesh": [k * sw["mesh_order"] for k, _, _ in MESH_LINES]}
+
+
+@pytest.fixture(scope="module")
+def scored(sw):
+    sweep, rnd, bench = _records(sw)
+    return compare_method(sweep, rnd, bench, "regression", {"knot_spacing": 1.0},
+                          _families(sw), SPEC)
+
+
+def test_metric_reads_the_known_parts(scored, sw):
+    # the harmonic part is exactly sweep - random-only: the regression leaves <= -60 dB of
+    # it, and the broadband error it makes in the 62 Hz band is what it takes of the known
+    # resonance response (a few per cent: small and negative, never a gain)
+    assert float(scored.leftover_db.min()) >= 60.0
+    band = scored.change_db.sel(band=[b for b in scored.band.values if b != "elsewhere"][0])
+    assert np.all(band.values < 0.05) and np.all(band.values > -1.0)
+    assert list(scored.band.values) == ["mode_62.0Hz", "elsewhere"]  # 1 and 900 Hz: outside
+    # the residual on the time axis is the sweep minus the fitted harmonics
+    err = scored.residual.values - sw["res"]
+    inside = (sw["t"] > sw["pulses"][1]) & (sw["t"] < sw["pulses"][-2])
+    assert np.std(err[inside]) < 0.2 * np.std(sw["res"])
+    assert scored.attrs["runtime_s"] > 0 and scored.attrs["peak_memory_mb"] > 0
+
+
+def test_rows_hold_every_method_family_bin_and_band(scored):
+    rows = removal_rows([scored])
+    assert len(rows) == 2 * 4 * 2  # families x rpm bins x bands
+    for r in rows:
+        assert r["attenuation_db"] == pytest.approx(
+            float(scored.attenuation_db.sel(family=r["family"], rpm=r["rpm"])))
+        assert r["change_db"] == pytest.approx(
+            float(scored.change_db.sel(band=r["band"], rpm=r["rpm"])))
+        assert r["rpm_lower"] < r["rpm"] < r["rpm_upper"]
+
+
+def test_a_different_random_only_record_is_refused(sw):
+    sweep, rnd, bench = _records(sw)
+    with pytest.raises(Exception, match="random-only sweep"):
+        compare_method(sweep, rnd.isel(time=slice(0, 1000)), bench, "vkf", {},
+                       _families(sw), SPEC)
+
+
+def test_method_params_keep_the_families_at_hand():
+    cfg = {"regression": {"knot_spacing": {"default": 1.0, "shaft": 2.0, "mesh1": 2.0}}}
+    got = method_params(cfg, "regression", {"shaft": [1.0], "mesh2": [5.3]})
+    assert got["knot_spacing"] == {"default": 1.0, "shaft": 2.0}
+
+
+def test_method_residuals_keep_the_low_part_and_remove_the_lines(sw):
+    # a test record: a slow step (far below the lowest order's frequency) under the lines;
+    # the split adds the low part back unchanged, so only the lines go
+    step = 50.0 * (sw["t"] > 10.0)
+    x = sw["hss"] + sw["mesh"] + step
+    attrs = {"sample_rate": sw["fs"], "pulses_per_rev": 1, "test": "speed_up",
+             "profile": "square"}
+    rec = xr.Dataset({"motor_torque_driver_measured": ("time", x, {"units": "N m"}),
+                      "pulse_time": ("pulse", sw["pulses"], {"units": "s"})},
+                     coords={"time": ("time", sw["t"], {"units": "s"})}, attrs=attrs)
+    out = method_residuals(rec, ["motor_torque_driver"], "regression", {"knot_spacing": 1.0},
+                           _families(sw), keep_below=0.5)
+    r = out.motor_torque_driver.values
+    inside = (sw["t"] > sw["pulses"][2]) & (sw["t"] < sw["pulses"][-3])
+    lines = np.mean((sw["hss"] + sw["mesh"])[inside] ** 2)
+    # past the step's edge (the low-pass split smears it over ~1 s), and where the
+    # lowest line is >= 1.5x the split frequency (0.5 x order 1 x the record's mean speed:
+    # early in this sweep order 1 sits right at it and stays partly in the low part)
+    calm = inside & (sw["t"] > 20.0)
+    assert 10 * np.log10(lines / np.mean((r - step)[calm] ** 2)) >= 40.0
+    assert out.attrs["method"] == "regression"

@@ -1,0 +1,81 @@
+"""The harmonic-removal comparison of a CI run: the random-only sweep, the table of every
+method x family x rpm bin x band, and the identification versions named after a method."""
+
+from __future__ import annotations
+
+import csv
+from collections import defaultdict
+
+import numpy as np
+
+from gbpipe import io
+from gbpipe.config import load
+from gbpipe.harmonics import excitation_families
+from tests.conftest import ROOT
+
+CI = load(ROOT / "config" / "config.yaml", ROOT / "config" / "ci.yaml")
+
+
+def _rows(path):
+    with open(path, newline="") as f:
+        return list(csv.DictReader(f))
+
+
+def test_random_only_sweep_is_the_same_noise_without_the_excitation(ci_run):
+    full = io.read(ci_run / "results" / "sweep" / "sweep.nc")
+    rnd = io.read(ci_run / "results" / "sweep" / "sweep_random.nc")
+    # the same draws: the clean signals (no noise, no excitation) are bit-identical
+    for name in ("torque_meter_driven", "speed_gb1_hss", "motor_torque_driver"):
+        assert np.array_equal(full[name].values, rnd[name].values), name
+    sig = CI["spectra"]["signal"]
+    diff = full[sig].values.astype(float) - rnd[sig].values.astype(float)
+    assert np.std(diff) > 1.0  # N m: the angle-locked excitation, and only it, differs
+
+
+def test_table_holds_every_method_family_bin_and_band_as_the_netcdfs(ci_run):
+    rows = _rows(ci_run / "results" / "tables" / "removal.csv")
+    families = list(excitation_families(CI))
+    methods = CI["removal"]["methods"]
+    per_method = defaultdict(list)
+    for r in rows:
+        per_method[r["method"]].append(r)
+    assert sorted(per_method) == sorted(methods)
+    for m in methods:
+        ds = io.read(ci_run / "results" / "removal" / f"{m}.nc")
+        assert list(ds.family.values) == families
+        n = len(families) * ds.rpm.size * ds.band.size
+        assert len(per_method[m]) == n
+        for r in per_method[m][:: max(1, n // 50)]:
+            i = int(np.argmin(np.abs(ds.rpm.values - float(r["rpm"]))))
+            assert float(r["leftover_db"]) == np.float32(
+                ds.leftover_db.sel(family=r["family"]).values[i])
+            assert float(r["distortion_db"]) == np.float32(
+                ds.distortion_db.sel(band=r["band"]).values[i])
+
+
+def test_best_method_per_family_removes_it_in_every_rpm_bin(ci_run):
+    # The issue's target on the default sweep is 60 dB; the CI sweep runs three times
+    # faster (36 s, 5 kHz), so amplitudes change faster through the resonances: 50 dB here.
+    best = {}
+    for m in CI["removal"]["methods"]:
+        ds = io.read(ci_run / "results" / "removal" / f"{m}.nc")
+        worst = ds.leftover_db.min("rpm")
+        for fam, v in zip(ds.family.values, worst.values, strict=True):
+            best[fam] = max(best.get(fam, -np.inf), float(v))
+    assert set(best) == set(excitation_families(CI))
+    assert min(best.values()) >= 50.0, best
+
+
+def test_identification_has_every_removal_version_and_removal_helps(ci_run):
+    rows = _rows(ci_run / "results" / "tables" / "identification.csv")
+    versions = {r["version"] for r in rows}
+    assert versions == set(CI["identify"]["versions"])
+    bw = defaultdict(float)
+    for r in rows:
+        if r["pairing"] == "Tdrv_to_wdrv" and r["status"] == "ok":
+            bw[r["version"]] = max(bw[r["version"]], float(r["match_bandwidth_hz"]))
+    # the direct pairing, raw against each removal: taking the harmonics out of the
+    # driving torque and speed never narrows the band matched within 1 dB
+    for v in CI["identify"]["versions"]:
+        if v not in ("clean", "raw"):
+            assert bw[v] >= bw["raw"], (v, dict(bw))

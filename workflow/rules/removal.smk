@@ -1,0 +1,131 @@
+# Harmonic removal beyond TSA: every method of `removal.methods` on the sweep, scored by
+# the exact separation metric against the random-only sweep (the same simulation with the
+# angle-locked excitation off), side by side in tables/removal.csv and one trade-off
+# figure; and on the tests, as identification versions named after the method.
+from gbpipe.harmonics import cycle_orders, excitation_families, removed_families
+
+REMOVAL_METHODS = config["removal"]["methods"]
+# identification versions that are a removal method of their own (tsa has tsa_tests)
+REMOVAL_VERSIONS = [v for v in config["identify"]["versions"]
+                    if v not in ("clean", "raw", "tsa")]
+
+
+def _sweep_families():
+    return {k: [str(o) for o in v] for k, v in excitation_families(config).items()}
+
+
+def _test_families():
+    cycles = cycle_orders(config["gearbox"]["stages"], config["tsa"]["tests"])
+    return {k: [str(o) for o in v]
+            for k, v in removed_families(excitation_families(config), cycles).items()}
+
+
+def removal_targets():
+    """Final targets of the removal comparison (for `all_targets`)."""
+    if not REMOVAL_METHODS:
+        return []
+    return [f"{RESULTS}/tables/removal.csv"] + figure("removal_tradeoff")
+
+
+rule sweep_random:
+    message:
+        "The sweep again with the same seeds and no angle-locked excitation (random-only)"
+    input:
+        code=code("sweep.py"),
+    params:
+        cfg=SWEEP_CFG,
+        random_only=True,
+    output:
+        nc=f"{RESULTS}/sweep/sweep_random.nc",
+    log:
+        f"{RESULTS}/logs/sweep_random.log",
+    benchmark:
+        f"{RESULTS}/benchmarks/sweep_random.tsv"
+    resources:
+        mem_mb=lambda wildcards, attempt: 4000 * attempt,  # a retry asks for more
+    script:
+        "../scripts/sweep.py"
+
+
+rule removal:
+    message:
+        "Harmonic removal by {wildcards.method} on the sweep, scored against the random-only "
+        "sweep"
+    wildcard_constraints:
+        method="|".join(REMOVAL_METHODS) or "none",
+    input:
+        sweep=rules.sweep.output.nc,
+        random=rules.sweep_random.output.nc,
+        bench=f"{RESULTS}/model/bench.nc",
+        code=code("removal.py"),
+    params:
+        method_cfg=lambda w: config["removal"][w.method],
+        families=_sweep_families(),
+        spectra=config["spectra"],
+    output:
+        nc=f"{RESULTS}/removal/{{method}}.nc",
+    log:
+        f"{RESULTS}/logs/removal/{{method}}.log",
+    benchmark:
+        f"{RESULTS}/benchmarks/removal/{{method}}.tsv"
+    resources:
+        mem_mb=lambda wildcards, attempt: 3000 * attempt,  # a retry asks for more
+    script:
+        "../scripts/removal.py"
+
+
+rule removal_table:
+    message:
+        "Table: attenuation and broadband distortion of every removal method x family x rpm "
+        "bin x band"
+    input:
+        methods=expand(f"{RESULTS}/removal/{{m}}.nc", m=REMOVAL_METHODS),
+        code=code("removal_table.py"),
+    output:
+        table=f"{RESULTS}/tables/removal.csv",
+    log:
+        f"{RESULTS}/logs/removal_table.log",
+    script:
+        "../scripts/removal_table.py"
+
+
+rule figures_removal:
+    message:
+        "Figure: attenuation against broadband distortion of every removal method"
+    input:
+        methods=expand(f"{RESULTS}/removal/{{m}}.nc", m=REMOVAL_METHODS),
+        code=code("figures_removal.py"),
+    params:
+        methods=REMOVAL_METHODS,
+    output:
+        **figure_outputs("removal_tradeoff", "Harmonic removal", name="removal_tradeoff"),
+    log:
+        f"{RESULTS}/logs/figures_removal.log",
+    script:
+        "../scripts/figures_removal.py"
+
+
+rule removal_tests:
+    message:
+        "Harmonic removal by {wildcards.method} on the measured-like {wildcards.test} "
+        "({wildcards.profile}) record, for identification"
+    wildcard_constraints:
+        method="|".join(REMOVAL_VERSIONS) or "none",
+    input:
+        record=f"{RESULTS}/simulate/{{test}}_{{profile}}.nc",
+        code=code("removal_tests.py"),
+    params:
+        method_cfg=lambda w: config["removal"][w.method],
+        families=_test_families(),
+        signals=_id_signals(),
+        keep_below=config["identify"]["tsa_keep_below"],
+    output:
+        nc=f"{RESULTS}/removal/tests/{{method}}/{{test}}_{{profile}}.nc",
+    log:
+        f"{RESULTS}/logs/removal_tests/{{method}}/{{test}}_{{profile}}.log",
+    benchmark:
+        f"{RESULTS}/benchmarks/removal_tests/{{method}}/{{test}}_{{profile}}.tsv"
+    resources:
+        mem_mb=lambda wildcards, attempt: 2000 * attempt,  # a retry asks for more
+    script:
+        "../scripts/removal_tests.py"
