@@ -1,7 +1,8 @@
 # Harmonic removal beyond TSA: every method of `removal.methods` on the sweep, scored by
 # the exact separation metric against the random-only sweep (the same simulation with the
 # angle-locked excitation off), side by side in tables/removal.csv and one trade-off
-# figure; and on the tests, as identification versions named after the method.
+# figure; and on the tests (scored against the random-only tests), as identification
+# versions named after the method.
 from gbpipe.harmonics import cycle_orders, excitation_families, removed_families
 
 REMOVAL_METHODS = config["removal"]["methods"]
@@ -47,6 +48,33 @@ rule sweep_random:
         "../scripts/sweep.py"
 
 
+rule simulate_random:
+    message:
+        "Closed-loop test {wildcards.test} ({wildcards.profile}) again with the same seeds and "
+        "no angle-locked excitation (random-only)"
+    input:
+        code=code("simulate.py"),
+    params:
+        cfg=SIMULATE_CFG,
+        random_only=True,
+    output:
+        nc=f"{RESULTS}/simulate/random/{{test}}_{{profile}}.nc",
+    log:
+        f"{RESULTS}/logs/simulate_random/{{test}}_{{profile}}.log",
+    benchmark:
+        f"{RESULTS}/benchmarks/simulate_random/{{test}}_{{profile}}.tsv"
+    resources:
+        mem_mb=lambda wildcards, attempt: 2000 * attempt,  # a retry asks for more
+    script:
+        "../scripts/simulate.py"
+
+
+def _removal_test_jobs():
+    idc = config["identify"]
+    return expand(f"{RESULTS}/removal/tests/{{m}}/{{t}}_{{p}}.nc", m=REMOVAL_VERSIONS,
+                  t=idc["tests"], p=idc["profiles"])
+
+
 rule removal:
     message:
         "Harmonic removal by {wildcards.method} on the sweep, scored against the random-only "
@@ -80,6 +108,7 @@ rule removal_table:
         "bin x band"
     input:
         methods=expand(f"{RESULTS}/removal/{{m}}.nc", m=REMOVAL_METHODS),
+        tests=_removal_test_jobs(),
         code=code("removal_table.py"),
     output:
         table=f"{RESULTS}/tables/removal.csv",
@@ -113,12 +142,15 @@ rule removal_tests:
         method="|".join(REMOVAL_VERSIONS) or "none",
     input:
         record=f"{RESULTS}/simulate/{{test}}_{{profile}}.nc",
+        random=rules.simulate_random.output.nc,
+        bench=f"{RESULTS}/model/bench.nc",
         code=code("removal_tests.py"),
     params:
         method_cfg=lambda w: config["removal"][w.method],
         families=_test_families(),
         signals=_id_signals(),
         keep_below=config["identify"]["tsa_keep_below"],
+        spectra=config["spectra"],
     output:
         nc=f"{RESULTS}/removal/tests/{{method}}/{{test}}_{{profile}}.nc",
     log:

@@ -1,11 +1,16 @@
+# the test records' config slice (also that of simulate_random, removal.smk)
+SIMULATE_CFG = {k: config[k] for k in ("seed", "gearbox", "bench", "campaign", "noise",
+                                       "excitation", "tachometer")}
+
+
 rule simulate:
     message:
         "Closed-loop test {wildcards.test} ({wildcards.profile} steps), clean and measured-like"
     input:
         code=code("simulate.py"),
     params:
-        cfg={k: config[k] for k in ("seed", "gearbox", "bench", "campaign", "noise",
-                                    "excitation", "tachometer")},
+        cfg=SIMULATE_CFG,
+        random_only=False,
     output:
         nc=f"{RESULTS}/simulate/{{test}}_{{profile}}.nc",
     log:

@@ -158,18 +158,20 @@ def check_removal(cfg: Mapping[str, Any]) -> None:
     A version beyond :data:`gbpipe.identify.VERSIONS` is a removal method run on the tests: it
     must be in ``removal.methods``, needs simulated tests (bench records have ``raw`` and
     ``tsa``) and families to remove (those of ``tsa.tests``, as for ``tsa``). A per-family
-    ``regression.knot_spacing`` may name only excitation families and ``default``, and
-    needs ``default`` unless it names every family.
+    ``regression.knot_spacing`` may name only the gearbox's families (``shaft``,
+    ``mesh<k>``) and ``default``, and needs ``default`` unless it names every excited one.
     """
     rem = cfg["removal"]
     families = excitation_families(cfg)
+    # any family the gearbox can have (an unexcited one is simply not removed)
+    names = ["shaft", *(f"mesh{k}" for k in range(1, len(cfg["gearbox"]["stages"]) + 1))]
     spacing = rem["regression"]["knot_spacing"]
     if isinstance(spacing, Mapping):
         for key in spacing:
-            if key != "default" and key not in families:
+            if key != "default" and key not in names:
                 raise ConfigError(f"removal.regression.knot_spacing.{key}",
-                                  f"is not an excitation family; "
-                                  f"{suggest(key, [*families, 'default'])}")
+                                  f"is not a family of this gearbox; "
+                                  f"{suggest(key, [*names, 'default'])}")
         missing = [f for f in families if f not in spacing]
         if missing and "default" not in spacing:
             raise ConfigError("removal.regression.knot_spacing",

@@ -40,8 +40,10 @@ from gbpipe.harmonics.averaging import AVERAGING, CyclePlan
 from gbpipe.harmonics.cepstrum import residual_cepstrum
 from gbpipe.harmonics.comparison import (
     compare_method,
+    harmonic_record,
     method_params,
     method_residuals,
+    record_separation,
     removal_rows,
 )
 from gbpipe.harmonics.drs import residual_drs
@@ -97,5 +99,5 @@ __all__ = [
     # workflow stages
     "remove", "waterfalls", "variant_metrics", "sweep_waterfalls", "tsa_variant",
     "record_residuals", "split_residuals", "compare_method", "method_params",
-    "method_residuals", "removal_rows",
+    "method_residuals", "removal_rows", "record_separation", "harmonic_record",
 ]

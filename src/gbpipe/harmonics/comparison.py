@@ -9,7 +9,8 @@ by the exact separation metric.
 * :func:`removal_rows` -- rule ``removal_table``: one row per method x family x rpm bin x
   band;
 * :func:`method_residuals` -- rule ``removal_tests``: the measured-like signals of a test
-  after one method, for identification (the version named after the method).
+  after one method, for identification (the version named after the method), and
+  :func:`record_separation`, the same exact metric on them against the random-only test.
 
 The random-only sweep is the same simulation with every excitation amplitude at zero
 (:func:`gbpipe.simulate.random_only`), so ``sweep - random_only`` is the harmonic part,
@@ -33,8 +34,10 @@ from gbpipe.harmonics.metrics import Families
 from gbpipe.harmonics.removal import remove_harmonics
 from gbpipe.harmonics.separation import separation_metrics
 from gbpipe.harmonics.stage import MODE_MIN_FREQUENCY, split_residuals
+from gbpipe.io import measured_signal
 
-__all__ = ["method_params", "compare_method", "removal_rows", "method_residuals"]
+__all__ = ["method_params", "compare_method", "removal_rows", "method_residuals",
+           "harmonic_record", "record_separation"]
 
 log = logging.getLogger(__name__)
 
@@ -137,37 +140,51 @@ def compare_method(sweep: xr.Dataset, random_only: xr.Dataset, bench: xr.Dataset
 
 
 def removal_rows(datasets: Sequence[xr.Dataset]) -> list[dict[str, Any]]:
-    """One row per method x family x rpm bin x band of :func:`compare_method` outputs.
+    """One row per method x record x signal x family x rpm bin x band.
 
-    Columns: ``method``, ``family``, ``band``, ``rpm``, ``rpm_lower``, ``rpm_upper``
-    [rev/min], ``band_lower``, ``band_upper`` [Hz], ``attenuation_db`` (of the family, on
-    the sweep, against the harmonic part), ``leftover_db`` (the method on the harmonic
-    part alone), ``distortion_db`` and ``change_db`` (the band, against the random-only
-    sweep) [dB], ``crossing`` (1 where an order of the family passes through the band),
-    ``runtime_s``.
+    ``datasets``: :func:`compare_method` outputs (the sweep, several rpm bins) and
+    :func:`record_separation` outputs (a test: one bin over the record, one per signal).
+
+    Columns: ``method``, ``record`` (``sweep`` or ``<test>_<profile>``), ``signal``,
+    ``family``, ``band``, ``rpm``, ``rpm_lower``, ``rpm_upper`` [rev/min] (empty for a
+    test), ``band_lower``, ``band_upper`` [Hz], ``attenuation_db`` (of the family, against
+    the harmonic part), ``leftover_db`` (the method on the harmonic part alone),
+    ``distortion_db`` and ``change_db`` (the band, against the random-only record)
+    [dB], ``crossing`` (1 where an order of the family passes through the band).
+    ``leftover_db`` is empty (NaN) where a dataset has none.
     """
     rows = []
     for ds in datasets:
-        fams, bands = [str(f) for f in ds.family.values], [str(b) for b in ds.band.values]
-        att = ds.attenuation_db.transpose("family", "rpm").values
-        left = ds.leftover_db.transpose("family", "rpm").values
-        dist = ds.distortion_db.transpose("band", "rpm").values
-        change = ds.change_db.transpose("band", "rpm").values
-        cross = ds.crossing.transpose("family", "band", "rpm").values
-        for k, fam in enumerate(fams):
-            for i, rpm in enumerate(ds.rpm.values):
-                for b, band in enumerate(bands):
-                    rows.append({
-                        "method": ds.attrs["method"], "family": fam, "band": band,
-                        "rpm": float(rpm), "rpm_lower": float(ds.rpm_lower[i]),
-                        "rpm_upper": float(ds.rpm_upper[i]),
-                        "band_lower": float(ds.band_lower[b]),
-                        "band_upper": float(ds.band_upper[b]),
-                        "attenuation_db": float(att[k, i]), "leftover_db": float(left[k, i]),
-                        "distortion_db": float(dist[b, i]), "change_db": float(change[b, i]),
-                        "crossing": int(cross[k, b, i]),
-                        "runtime_s": float(ds.attrs["runtime_s"]),
-                    })
+        test = "signal" in ds.dims
+        signals = [str(v) for v in ds.signal.values] if test else [ds.attrs["signal"]]
+        record = f"{ds.attrs['test']}_{ds.attrs['profile']}" if test else "sweep"
+        for j, sig in enumerate(signals):
+            one = ds.isel(signal=j).expand_dims("rpm") if test else ds
+            n_bins = one.sizes["rpm"]
+            nan = np.full((one.sizes["family"], n_bins), np.nan)
+            att = one.attenuation_db.transpose("family", "rpm").values
+            left = (one.leftover_db.transpose("family", "rpm").values
+                    if "leftover_db" in one else nan)
+            dist = one.distortion_db.transpose("band", "rpm").values
+            change = one.change_db.transpose("band", "rpm").values
+            cross = one.crossing.transpose("family", "band", "rpm").values
+            for k, fam in enumerate(one.family.values):
+                for i in range(n_bins):
+                    rpm = ([""] * 3 if test else
+                           [float(one.rpm[i]), float(one.rpm_lower[i]), float(one.rpm_upper[i])])
+                    for b, band in enumerate(one.band.values):
+                        rows.append({
+                            "method": ds.attrs["method"], "record": record, "signal": sig,
+                            "family": str(fam), "band": str(band), "rpm": rpm[0],
+                            "rpm_lower": rpm[1], "rpm_upper": rpm[2],
+                            "band_lower": float(one.band_lower[b]),
+                            "band_upper": float(one.band_upper[b]),
+                            "attenuation_db": float(att[k, i]),
+                            "leftover_db": float(left[k, i]),
+                            "distortion_db": float(dist[b, i]),
+                            "change_db": float(change[b, i]),
+                            "crossing": int(cross[k, b, i]),
+                        })
     return rows
 
 
@@ -201,4 +218,71 @@ def method_residuals(record: xr.Dataset, names: Sequence[str], method: str,
                          f"{method} removal of {', '.join(families)}")
     ds.attrs.update(method=method, families=" ".join(families), params=repr(dict(params)))
     return ds
+
+
+def harmonic_record(record: xr.Dataset, random_only: xr.Dataset,
+                    names: Sequence[str]) -> xr.Dataset:
+    """``record`` whose measured-like signals are replaced by their harmonic part
+    (``record - random_only``): what :func:`method_residuals` runs on for ``leftover_db``."""
+    out = record.copy()
+    for name in names:
+        x, n = measured_signal(record, name), measured_signal(random_only, name)
+        if n.shape != x.shape:
+            raise DataError("random-only test", f"{name} has {n.size} samples, the test "
+                            f"{x.size}: simulate both from the same config")
+        out[x.name] = x - n.values
+    return out
+
+
+def record_separation(residuals: xr.Dataset, record: xr.Dataset, random_only: xr.Dataset,
+                      bench: xr.Dataset, families: Families, spec: Mapping[str, Any],
+                      harmonic_residuals: xr.Dataset | None = None) -> xr.Dataset:
+    """The exact separation metric of each signal of :func:`method_residuals`.
+
+    Parameters
+    ----------
+    residuals : xarray.Dataset
+        :func:`method_residuals` of ``record`` (one variable per signal).
+    record, random_only : xarray.Dataset
+        The test record and the same simulation without the angle-locked excitation
+        (:func:`gbpipe.simulate.random_only`); ``record``'s pulses are used.
+    bench, families, spec
+        As :func:`compare_method`; one rpm bin spans the whole record (a ramp test holds
+        one or two speeds).
+    harmonic_residuals : xarray.Dataset, optional
+        :func:`method_residuals` of :func:`harmonic_record`: adds ``leftover_db``.
+
+    Returns
+    -------
+    xarray.Dataset
+        ``residuals`` with ``attenuation_db`` and ``leftover_db`` (signal, family),
+        ``distortion_db`` and
+        ``change_db`` (signal, band) [dB] and ``crossing`` (family, band) [1].
+    """
+    fs = float(record.attrs["sample_rate"])
+    pulses = np.asarray(record.pulse_time.values, dtype=float)
+    modes = structural_modes(bench.closed_mode_frequency.values, MODE_MIN_FREQUENCY,
+                             spec["mode_max_frequency"], spec["mode_half_width"])
+    names = [str(n) for n in residuals.data_vars]
+    per_signal = []
+    for name in names:
+        n = np.asarray(measured_signal(random_only, name).values, dtype=float)
+        h = np.asarray(measured_signal(harmonic_record(record, random_only, [name]),
+                                       name).values, dtype=float)
+        met = separation_metrics(residuals[name].values, n, h, fs, pulses, families,
+                                 modes, rpm_bins=1, half_width=spec["mode_half_width"],
+                                 f_max=spec["max_frequency"],
+                                 pulses_per_rev=int(record.attrs["pulses_per_rev"]),
+                                 harmonic_residual=None if harmonic_residuals is None
+                                 else harmonic_residuals[name].values)
+        per_signal.append(met.isel(rpm=0, drop=True))
+    first = per_signal[0]
+    out = {v: (("signal", *first[v].dims), np.stack([m[v].values for m in per_signal]),
+               first[v].attrs) for v in ("attenuation_db", "leftover_db", "distortion_db",
+                                         "change_db") if v in first}
+    out["crossing"] = first.crossing
+    coords = {k: first.coords[k] for k in ("family", "band", "band_lower", "band_upper")}
+    coords["signal"] = ("signal", names, {"units": "1", "long_name": "signal after removal"})
+    met = xr.Dataset(out, coords=coords)
+    return xr.merge([residuals, met], combine_attrs="override")
 
