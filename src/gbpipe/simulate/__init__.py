@@ -12,10 +12,16 @@ steady_state(ss, u0, omega0)
     Closed-loop state in steady rotation.
 SIGNALS
     Recorded signals: name -> (unit, long name, sensor kind).
+multisine(fs, duration, f_min, f_max, rms), prbs(fs, duration, amplitude, clock_hz=...)
+    Designed excitation to superpose on a set-point (:mod:`.excitation`).
+within_limits(reference, excitation, limit, name, fs=None)
+    Refuse an excitation that drives the set-point beyond a limit.
 
 The simulator itself is :func:`gbpipe.lti.lsim`. See docs/architecture.md, "Stage graph".
 """
 
 from gbpipe.simulate.campaign import SIGNALS, random_only, steady_state, sweep, test
+from gbpipe.simulate.excitation import multisine, prbs, within_limits
 
-__all__ = ["test", "sweep", "random_only", "steady_state", "SIGNALS"]
+__all__ = ["test", "sweep", "random_only", "steady_state", "SIGNALS",
+           "multisine", "prbs", "within_limits"]
