@@ -1,7 +1,11 @@
 # Identification stage (paper section 3, Fig 6, and its future work: identification after
 # harmonic removal). model (truth.nc) + simulate + tsa_tests -> identify
 # {test}_{profile}_{method} -> table + figures.
-from gbpipe.identify import VALIDATION_PARTNER
+from gbpipe.identify import VALIDATION_PARTNER, VERSIONS
+
+# identification versions that are a removal method of their own (rules removal_tests in
+# removal.smk; tsa has tsa_tests)
+REMOVAL_VERSIONS = [v for v in config["identify"]["versions"] if v not in VERSIONS]
 
 
 def _id_signals():
@@ -66,7 +70,7 @@ rule identify:
         tsa_record=f"{RESULTS}/tsa/tests/{{test}}_{{profile}}.nc",
         tsa_validation=lambda w: (
             f"{RESULTS}/tsa/tests/{VALIDATION_PARTNER[w.test]}_{w.profile}.nc"),
-        # the versions named after a removal method (rules removal_tests)
+        # per removal version: the record after it, then the validation record after it
         removed=lambda w: [f"{RESULTS}/removal/tests/{m}/{t}_{w.profile}.nc"
                            for m in REMOVAL_VERSIONS
                            for t in (w.test, VALIDATION_PARTNER[w.test])],
@@ -76,6 +80,7 @@ rule identify:
         # the truth comes from truth.nc (the model stage): no gearbox or bench here
         cfg=lambda w: {"campaign": {"settle": config["campaign"]["settle"]},
                        "identify": config["identify"]},
+        removal_versions=REMOVAL_VERSIONS,
     output:
         nc=f"{RESULTS}/identify/{{test}}_{{profile}}_{{method}}.nc",
     log:

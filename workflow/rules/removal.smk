@@ -3,22 +3,10 @@
 # angle-locked excitation off), side by side in tables/removal.csv and one trade-off
 # figure; and on the tests (scored against the random-only tests), as identification
 # versions named after the method.
-from gbpipe.harmonics import cycle_orders, excitation_families, removed_families
-
 REMOVAL_METHODS = config["removal"]["methods"]
-# identification versions that are a removal method of their own (tsa has tsa_tests)
-REMOVAL_VERSIONS = [v for v in config["identify"]["versions"]
-                    if v not in ("clean", "raw", "tsa")]
-
-
-def _sweep_families():
-    return {k: [str(o) for o in v] for k, v in excitation_families(config).items()}
-
-
-def _test_families():
-    cycles = cycle_orders(config["gearbox"]["stages"], config["tsa"]["tests"])
-    return {k: [str(o) for o in v]
-            for k, v in removed_families(excitation_families(config), cycles).items()}
+# what the families removed derive from (gbpipe.harmonics.excitation_families, test_families)
+FAMILIES_CFG = {"gearbox": {"stages": config["gearbox"]["stages"]},
+                "excitation": config["excitation"]}
 
 
 def removal_targets():
@@ -88,7 +76,7 @@ rule removal:
         code=code("removal.py"),
     params:
         method_cfg=lambda w: config["removal"][w.method],
-        families=_sweep_families(),
+        families_cfg=FAMILIES_CFG,
         spectra=config["spectra"],
     output:
         nc=f"{RESULTS}/removal/{{method}}.nc",
@@ -147,7 +135,7 @@ rule removal_tests:
         code=code("removal_tests.py"),
     params:
         method_cfg=lambda w: config["removal"][w.method],
-        families=_test_families(),
+        families_cfg={**FAMILIES_CFG, "tsa": {"tests": config["tsa"]["tests"]}},
         signals=_id_signals(),
         keep_below=config["identify"]["tsa_keep_below"],
         spectra=config["spectra"],

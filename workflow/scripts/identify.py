@@ -7,10 +7,10 @@ snakemake = globals()["snakemake"]
 log = io.setup_log(snakemake.log[0])
 w, cfg, i = snakemake.wildcards, snakemake.params.cfg, snakemake.input
 removed = {"tsa": (io.read(i.tsa_record), io.read(i.tsa_validation))}
-# rules.identify lists each removal version's record, then its validation record
-pairs = [io.read(p) for p in i.removed]
-for rec, partner in zip(pairs[::2], pairs[1::2], strict=True):
-    removed[rec.attrs["method"]] = (rec, partner)
+# rules.identify lists, per removal version in order, its record then its validation record
+paths = list(i.removed)
+for k, version in enumerate(snakemake.params.removal_versions):
+    removed[version] = (io.read(paths[2 * k]), io.read(paths[2 * k + 1]))
 ds = identify_record(cfg, io.read(i.record), io.read(i.validation), io.read(i.truth), w.method,
                      removed)
 io.write(ds, snakemake.output.nc, sources=snakemake.input, stage="identify", config=cfg,

@@ -1,24 +1,28 @@
 """Rule `removal_tests`: one harmonic-removal method on the measured-like signals of a test
 record, for the identification version named after it."""
 
-from fractions import Fraction
-
 from gbpipe import io
-from gbpipe.harmonics import harmonic_record, method_params, method_residuals, record_separation
+from gbpipe.harmonics import (
+    harmonic_record,
+    method_params,
+    method_residuals,
+    record_separation,
+    test_families,
+)
 
 snakemake = globals()["snakemake"]
 log = io.setup_log(snakemake.log[0])
 p, w = snakemake.params, snakemake.wildcards
-families = {k: [Fraction(o) for o in v] for k, v in p.families.items()}
+families = test_families(p.families_cfg)
 record, random = io.read(snakemake.input.record), io.read(snakemake.input.random)
 params = method_params({w.method: p.method_cfg}, w.method, families)
 ds = method_residuals(record, p.signals, w.method, params, families, p.keep_below)
 # the same removal on the known harmonic part alone: the family's leftover, free of the
 # random part's own content at the orders
-harmonic = method_residuals(harmonic_record(record, random, p.signals), p.signals, w.method,
-                            params, families, p.keep_below)
-ds = record_separation(ds, record, random, io.read(snakemake.input.bench), families,
-                       p.spectra, harmonic)
+harmonic = harmonic_record(record, random, p.signals)
+leftover = method_residuals(harmonic, p.signals, w.method, params, families, p.keep_below)
+ds = record_separation(ds, harmonic, random, io.read(snakemake.input.bench), families,
+                       p.spectra, leftover)
 io.write(ds, snakemake.output.nc, sources=snakemake.input, stage="removal_tests",
          config=dict(p), wildcards=dict(w.items()),
          title=f"Measured-like {w.test} ({w.profile}) after {w.method} harmonic removal")

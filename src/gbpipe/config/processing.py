@@ -24,7 +24,7 @@ from scipy.signal import get_window, savgol_coeffs
 
 from gbpipe.config.schema_validation import suggest
 from gbpipe.errors import ConfigError
-from gbpipe.harmonics import cycle_orders, excitation_families, removed_families
+from gbpipe.harmonics import excitation_families, family_names, test_families
 from gbpipe.identify import VERSIONS
 from gbpipe.kinematics import order_of
 from gbpipe.simulate.profiles import sweep_revolutions, test_revolutions
@@ -164,7 +164,7 @@ def check_removal(cfg: Mapping[str, Any]) -> None:
     rem = cfg["removal"]
     families = excitation_families(cfg)
     # any family the gearbox can have (an unexcited one is simply not removed)
-    names = ["shaft", *(f"mesh{k}" for k in range(1, len(cfg["gearbox"]["stages"]) + 1))]
+    names = family_names(cfg["gearbox"]["stages"])
     spacing = rem["regression"]["knot_spacing"]
     if isinstance(spacing, Mapping):
         for key in spacing:
@@ -186,8 +186,7 @@ def check_removal(cfg: Mapping[str, Any]) -> None:
     if cfg["measured"]:
         raise ConfigError("identify.versions", f"{methods}: removal methods other than TSA "
                           "run on the simulated tests only; use raw and tsa for bench records")
-    cycles = cycle_orders(cfg["gearbox"]["stages"], cfg["tsa"]["tests"])
-    if not removed_families(families, cycles):
+    if not test_families(cfg):
         raise ConfigError("tsa.tests", f"{cfg['tsa']['tests']} removes no excitation family "
                           f"({sorted(families)}), but identify.versions {methods} remove "
                           "those of tsa.tests: name a cycle that carries one (e.g. hss)")

@@ -50,9 +50,11 @@ from gbpipe.harmonics.drs import residual_drs
 from gbpipe.harmonics.families import (
     cycle_orders,
     excitation_families,
+    family_names,
     family_orders,
     removed_families,
     structural_modes,
+    test_families,
 )
 from gbpipe.harmonics.metrics import family_attenuation, mode_band_change, removal_metrics
 from gbpipe.harmonics.regression import residual_regression
@@ -90,7 +92,8 @@ __all__ = [
     "residual", "residual_joint", "synchronous_average", "TSAInfo", "JointInfo",
     "CyclePlan", "AVERAGING",
     # families and metrics
-    "family_orders", "cycle_orders", "excitation_families", "removed_families",
+    "family_orders", "cycle_orders", "family_names", "excitation_families",
+    "removed_families", "test_families",
     "structural_modes", "family_attenuation", "mode_band_change", "removal_metrics",
     # removal methods beyond TSA, and their exact separation metric
     "REMOVAL_METHODS", "remove_harmonics", "residual_tsa", "residual_vkf",

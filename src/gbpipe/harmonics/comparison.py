@@ -29,11 +29,10 @@ import numpy as np
 import xarray as xr
 
 from gbpipe.errors import DataError
-from gbpipe.harmonics.families import structural_modes
 from gbpipe.harmonics.metrics import Families
 from gbpipe.harmonics.removal import remove_harmonics
 from gbpipe.harmonics.separation import separation_metrics
-from gbpipe.harmonics.stage import MODE_MIN_FREQUENCY, split_residuals
+from gbpipe.harmonics.stage import split_residuals, watched_modes
 from gbpipe.io import measured_signal
 
 __all__ = ["method_params", "compare_method", "removal_rows", "method_residuals",
@@ -105,8 +104,7 @@ def compare_method(sweep: xr.Dataset, random_only: xr.Dataset, bench: xr.Dataset
                         " simulate both from the same config (rule sweep_random)")
     pulses = np.asarray(sweep.pulse_time.values, dtype=float)
     ppr = int(sweep.attrs["pulses_per_rev"])
-    modes = structural_modes(bench.closed_mode_frequency.values, MODE_MIN_FREQUENCY,
-                             spec["mode_max_frequency"], spec["mode_half_width"])
+    modes = watched_modes(bench, spec)
     log.info("%s on %d samples, families %s, params %s", method, x.size, list(families),
              dict(params))
     start = time.perf_counter()
@@ -234,7 +232,7 @@ def harmonic_record(record: xr.Dataset, random_only: xr.Dataset,
     return out
 
 
-def record_separation(residuals: xr.Dataset, record: xr.Dataset, random_only: xr.Dataset,
+def record_separation(residuals: xr.Dataset, harmonic: xr.Dataset, random_only: xr.Dataset,
                       bench: xr.Dataset, families: Families, spec: Mapping[str, Any],
                       harmonic_residuals: xr.Dataset | None = None) -> xr.Dataset:
     """The exact separation metric of each signal of :func:`method_residuals`.
@@ -242,10 +240,11 @@ def record_separation(residuals: xr.Dataset, record: xr.Dataset, random_only: xr
     Parameters
     ----------
     residuals : xarray.Dataset
-        :func:`method_residuals` of ``record`` (one variable per signal).
-    record, random_only : xarray.Dataset
-        The test record and the same simulation without the angle-locked excitation
-        (:func:`gbpipe.simulate.random_only`); ``record``'s pulses are used.
+        :func:`method_residuals` of the test record (one variable per signal).
+    harmonic, random_only : xarray.Dataset
+        The record's harmonic part (:func:`harmonic_record`: the record's pulses and
+        attributes) and the same simulation without the angle-locked excitation
+        (:func:`gbpipe.simulate.random_only`).
     bench, families, spec
         As :func:`compare_method`; one rpm bin spans the whole record (a ramp test holds
         one or two speeds).
@@ -256,23 +255,21 @@ def record_separation(residuals: xr.Dataset, record: xr.Dataset, random_only: xr
     -------
     xarray.Dataset
         ``residuals`` with ``attenuation_db`` and ``leftover_db`` (signal, family),
-        ``distortion_db`` and
-        ``change_db`` (signal, band) [dB] and ``crossing`` (family, band) [1].
+        ``distortion_db`` and ``change_db`` (signal, band) [dB] and ``crossing`` (family,
+        band) [1].
     """
-    fs = float(record.attrs["sample_rate"])
-    pulses = np.asarray(record.pulse_time.values, dtype=float)
-    modes = structural_modes(bench.closed_mode_frequency.values, MODE_MIN_FREQUENCY,
-                             spec["mode_max_frequency"], spec["mode_half_width"])
+    fs = float(harmonic.attrs["sample_rate"])
+    pulses = np.asarray(harmonic.pulse_time.values, dtype=float)
+    modes = watched_modes(bench, spec)
     names = [str(n) for n in residuals.data_vars]
     per_signal = []
     for name in names:
         n = np.asarray(measured_signal(random_only, name).values, dtype=float)
-        h = np.asarray(measured_signal(harmonic_record(record, random_only, [name]),
-                                       name).values, dtype=float)
+        h = np.asarray(measured_signal(harmonic, name).values, dtype=float)
         met = separation_metrics(residuals[name].values, n, h, fs, pulses, families,
                                  modes, rpm_bins=1, half_width=spec["mode_half_width"],
                                  f_max=spec["max_frequency"],
-                                 pulses_per_rev=int(record.attrs["pulses_per_rev"]),
+                                 pulses_per_rev=int(harmonic.attrs["pulses_per_rev"]),
                                  harmonic_residual=None if harmonic_residuals is None
                                  else harmonic_residuals[name].values)
         per_signal.append(met.isel(rpm=0, drop=True))

@@ -18,8 +18,8 @@ import numpy as np
 from gbpipe.harmonics.checks import as_order, as_positive
 from gbpipe.kinematics import order_of
 
-__all__ = ["family_orders", "cycle_orders", "excitation_families", "removed_families",
-           "structural_modes"]
+__all__ = ["family_orders", "cycle_orders", "family_names", "excitation_families",
+           "removed_families", "test_families", "structural_modes"]
 
 
 def family_orders(cycle_order: float | Fraction, max_order: float) -> np.ndarray:
@@ -76,6 +76,11 @@ def cycle_orders(stages: Sequence[Mapping[str, Any]], cycles: Sequence[str]) -> 
     return [order_of(stages, c) for c in cycles]
 
 
+def family_names(stages: Sequence[Mapping[str, Any]]) -> list[str]:
+    """Every family a gearbox can have: ``shaft``, then ``mesh<k>`` per stage (k from 1)."""
+    return ["shaft", *(f"mesh{k}" for k in range(1, len(stages) + 1))]
+
+
 def excitation_families(cfg: Mapping[str, Any]) -> dict[str, list[Fraction]]:
     """Orders of every configured excitation, grouped by source.
 
@@ -109,3 +114,11 @@ def removed_families(families: Mapping[str, Sequence[Fraction]],
         if kept:
             out[name] = kept
     return out
+
+
+def test_families(cfg: Mapping[str, Any]) -> dict[str, list[Fraction]]:
+    """The excitation families that the ``tsa.tests`` cycles remove: what every harmonic-
+    removal version of identification takes off the tests (TSA and the other methods)."""
+    return removed_families(excitation_families(cfg),
+                            cycle_orders(cfg["gearbox"]["stages"], cfg["tsa"]["tests"]))
+

@@ -35,13 +35,22 @@ from gbpipe.harmonics.tsa import residual, residual_joint
 from gbpipe.io import longest_segment, mean_shaft_frequency, measured_signal
 
 __all__ = ["waterfalls", "remove", "variant_metrics", "sweep_waterfalls", "tsa_variant",
-           "split_residuals", "record_residuals", "MODE_MIN_FREQUENCY"]
+           "split_residuals", "record_residuals", "watched_modes", "MODE_MIN_FREQUENCY"]
 
 log = logging.getLogger(__name__)
 
 #: Lowest structural mode watched by the removal metrics [Hz]: below it the bands would
 #: hold the rigid-body and control dynamics, not a resonance.
 MODE_MIN_FREQUENCY = 10.0
+
+
+def watched_modes(bench: xr.Dataset, spec: Mapping[str, Any]) -> np.ndarray:
+    """The bench modes a removal must leave alone [Hz]: the closed-loop modes of the model
+    stage's ``bench.nc`` between :data:`MODE_MIN_FREQUENCY` and
+    ``spec["mode_max_frequency"]``, pairs closer than ``spec["mode_half_width"]`` merged
+    (:func:`gbpipe.harmonics.structural_modes`)."""
+    return structural_modes(bench.closed_mode_frequency.values, MODE_MIN_FREQUENCY,
+                            spec["mode_max_frequency"], spec["mode_half_width"])
 
 
 def waterfalls(x: np.ndarray, fs: float, pulse_times: np.ndarray, spec: Mapping[str, Any],
@@ -176,8 +185,7 @@ def tsa_variant(sweep: xr.Dataset, bench: xr.Dataset, variant: str,
     cycles = cycle_orders(stages, tsa_cfg["cycles"])
     families = removed_families(
         excitation_families({"gearbox": {"stages": stages}, "excitation": excitation}), cycles)
-    modes = structural_modes(bench.closed_mode_frequency.values, MODE_MIN_FREQUENCY,
-                             spec["mode_max_frequency"], spec["mode_half_width"])
+    modes = watched_modes(bench, spec)
     log.info("variant %s: cycles %s (orders %s); removed families %s", variant,
              tsa_cfg["cycles"], [f"{float(c):.4f}" for c in cycles], list(families))
     r = remove(x, fs, pulses, cycles, tsa_cfg, pulses_per_rev=ppr)
