@@ -9,6 +9,7 @@ from harmonic_sweeps import FS, MESH, make_sweep
 
 from gbpipe import harmonics
 from gbpipe.errors import DataError, PulseError
+from gbpipe.harmonics.tracking import uniform_projection
 
 
 @pytest.fixture(scope="module")
@@ -190,3 +191,17 @@ def test_orders_reject_bad_input(sw):
         harmonics.resample_to_angle(np.c_[x, x], FS, sw["pulses"])
     with pytest.raises(ValueError, match="orders must be > 0"):
         harmonics.order_amplitudes(x, FS, sw["pulses"], [3, -1])
+
+
+def test_uniform_projection_equals_the_direct_sum():
+    # the blocked (twiddle-factored) projection against the plain sum of x exp(-1j m theta)
+    # over a grid long enough for block padding (n not a square), at non-integer orders
+    rng = np.random.default_rng(3)
+    x = rng.standard_normal(20011)
+    step = 2 * np.pi / 48
+    start = 101 * step
+    orders = np.array([0.5, 1.0, 5.3569, 23.95])
+    theta = start + np.arange(x.size) * step
+    direct = np.array([np.sum(x * np.exp(-1j * m * theta)) for m in orders])
+    got = uniform_projection(x, start, step, orders)
+    assert np.max(np.abs(got - direct)) <= 1e-9 * np.max(np.abs(direct))

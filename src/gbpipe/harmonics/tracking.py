@@ -12,8 +12,9 @@ import numpy as np
 from gbpipe.harmonics.angle import angle_map, resample_map_to_angle
 from gbpipe.harmonics.checks import as_order, get_window
 from gbpipe.harmonics.tacho import AngleMethod
+from gbpipe.units import TWO_PI
 
-__all__ = ["order_amplitudes"]
+__all__ = ["order_amplitudes", "uniform_projection"]
 
 
 def order_amplitudes(
@@ -63,13 +64,50 @@ def order_amplitudes(
     seg = (np.array([[0.0, theta[-1]]]) if single
            else np.atleast_2d(np.asarray(segments, dtype=float)))
     out = np.full((seg.shape[0], ords.size), np.nan + 0j)
+    step = TWO_PI / spr  # the constant-angle grid is uniform: theta[i] = i * step
     for s, (a, b) in enumerate(seg):  # loop over segments (a handful), not cycles
         i0, i1 = np.searchsorted(theta, [a, b])
         if (i1 - i0) < 2 * spr:
             continue
         w = get_window(window, i1 - i0)
-        wx = w * xa[i0:i1]
-        for c in range(0, ords.size, 16):  # chunks of orders bound the memory
-            ph = np.exp(-1j * np.outer(theta[i0:i1], ords[c:c + 16]))
-            out[s, c:c + 16] = 2.0 * (wx @ ph) / w.sum()
+        out[s] = 2.0 * uniform_projection(w * xa[i0:i1], i0 * step, step, ords) / w.sum()
     return out[0] if single else out
+
+
+def uniform_projection(x: np.ndarray, start: float, step: float,
+                       orders: np.ndarray) -> np.ndarray:
+    """``sum_i x[i] exp(-1j m (start + i step))`` for each order ``m``, exactly.
+
+    The sample index is split as ``i = q B + r`` with ``B ~ sqrt(n)``, so the phasor
+    factors into ``exp(-1j m step q B) exp(-1j m step r)``: ``B + n / B`` complex
+    exponentials per order instead of ``n``, and the sum becomes one real-by-complex
+    matrix product. Each factor is evaluated directly (no recurrence), so the result
+    equals the direct sum to rounding.
+
+    Parameters
+    ----------
+    x : ndarray, shape (n,)
+        Samples on a uniform angle grid.
+    start, step : float
+        Angle of the first sample and the grid step [rad].
+    orders : ndarray, shape (m,)
+        Orders [-].
+
+    Returns
+    -------
+    ndarray, complex, shape (m,)
+    """
+    n = x.size
+    block = max(int(np.sqrt(n)), 1)
+    n_blocks = -(-n // block)
+    xb = np.zeros(n_blocks * block)
+    xb[:n] = x
+    xb = xb.reshape(n_blocks, block)
+    r = np.arange(block) * step
+    q = start + np.arange(n_blocks) * (block * step)
+    out = np.empty(orders.size, complex)
+    for c in range(0, orders.size, 64):  # chunks of orders bound the memory
+        o = orders[c:c + 64]
+        inner = xb @ np.exp(-1j * np.outer(r, o))          # (n_blocks, orders)
+        out[c:c + 64] = np.sum(inner * np.exp(-1j * np.outer(q, o)), axis=0)
+    return out
