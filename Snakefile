@@ -36,6 +36,7 @@ include: "workflow/rules/model.smk"
 include: "workflow/rules/simulate.smk"
 include: "workflow/rules/harmonics.smk"
 include: "workflow/rules/identify.smk"
+include: "workflow/rules/design.smk"
 include: "workflow/rules/removal.smk"
 include: "workflow/rules/measured.smk"
 

@@ -21,8 +21,17 @@ run at the next N only when its time at the previous N, scaled linearly, stays u
 The plant, the closed-loop data and the reference simulator are the test fixtures of
 ``tests/sysid/sysid_plants.py`` (one implementation; that folder is put on ``sys.path``).
 
+Identify-stage size (``--stage-size``): one fit of each method at the size the identify stage
+uses (N = 6e4 at 1 kHz, past 100, future 50, order 24), SISO and 2x2, on an order-24 modal
+plant whose input and noisy output are low-passed at 0.8 x Nyquist by an FIR with 80 dB and
+120 dB stop band (``tests/sysid/sysid_plants.py``: ``stage_data``), best of 3 wall times and
+the median relative FRF error against the truth over 1-380 Hz; then the validation step (a
+40 s record in 2 s segments, each from its least-squares initial state): ``estimate_x0`` +
+``simulate`` per segment against the batched ``SubspaceModel.simulate_segments``.
+
 Usage: ``OMP_NUM_THREADS=1 python benchmarks/sysid.py [--budget 240] [--sizes 1e4 1e5 1e6]``;
-quick check: ``--sizes 1e4 --methods "gbpipe pbsid" --closed-loop 2e4``.
+quick check: ``--sizes 1e4 --methods "gbpipe pbsid" --closed-loop 2e4``; stage size:
+``--stage-size``.
 """
 
 from __future__ import annotations
@@ -42,7 +51,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests" / "sysid"))
 
-from sysid_plants import closed_loop_data, simulate, two_mode_plant  # noqa: E402
+from sysid_plants import closed_loop_data, simulate, stage_data, two_mode_plant  # noqa: E402
 
 from gbpipe import sysid  # noqa: E402
 
@@ -209,6 +218,53 @@ def speedup_table(results: dict[tuple[str, int], dict]) -> None:
         print(f"{method:<16}{n:>9.0e}" + "".join(f"{c:>22}" for c in cells))
 
 
+def _best_of(fn, repeats: int = 3):
+    """Result of ``fn()`` and its best wall time over ``repeats`` calls [s]."""
+    best = np.inf
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        out = fn()
+        best = min(best, time.perf_counter() - t0)
+    return out, best
+
+
+def stage_size_table() -> None:
+    """Timings at the identify stage's problem size (module docstring)."""
+    dt, f = 1e-3, np.linspace(1.0, 380.0, 300)
+    fits = {
+        "pbsid": lambda u, y: sysid.pbsid(u, y, 24, 100, 50, dt=dt),
+        "moesp": lambda u, y: sysid.moesp(u, y, 24, 50, dt, past=100),
+        "n4sid": lambda u, y: sysid.n4sid(u, y, 24, 50, dt, past=100),
+    }
+    print("\nIdentify-stage size: N = 6e4, past 100, future 50, order 24 (best of 3)")
+    print(f"{'case':<16}{'stop dB':>8}{'method':>8}{'time ms':>10}{'FRF err':>10}")
+    for (m, l_), stop in (((1, 1), 80.0), ((2, 2), 80.0), ((1, 1), 120.0), ((2, 2), 120.0)):
+        u, y, (A, B, C, D) = stage_data(60_000, m, l_, seed=0, stop_db=stop)
+        z = np.exp(2j * np.pi * f * dt)
+        g = C @ np.linalg.solve(z[:, None, None] * np.eye(A.shape[0]) - A,
+                                np.broadcast_to(B, (f.size, *B.shape)))
+        for name, fit in fits.items():
+            model, el = _best_of(lambda fit=fit, u=u, y=y: fit(u, y))
+            err = float(np.median(np.abs(model.frf(f) - g) / np.abs(g)))
+            print(f"{f'{m}x{l_}':<16}{stop:>8.0f}{name:>8}{1e3 * el:>10.1f}{err:>10.4f}",
+                  flush=True)
+    u, y, _ = stage_data(40_000, 2, 2, seed=1)
+    model = sysid.moesp(u, y, 24, 50, dt, past=100)
+    seg = 2000
+
+    def per_segment():
+        for a in range(0, len(u), seg):
+            model.simulate(u[a:a + seg], model.estimate_x0(u[a:a + seg], y[a:a + seg]))
+
+    _, t_loop = _best_of(per_segment)
+    print(f"validation, 2x2, 40 s in 2 s segments: estimate_x0 + simulate per segment "
+          f"{1e3 * t_loop:.1f} ms", end="")
+    if hasattr(model, "simulate_segments"):  # absent before the batched version
+        _, t_batch = _best_of(lambda: model.simulate_segments(u, y, seg))
+        print(f", simulate_segments {1e3 * t_batch:.1f} ms", end="")
+    print()
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--worker", nargs=2, metavar=("METHOD", "DATA"), help=argparse.SUPPRESS)
@@ -218,9 +274,14 @@ def main() -> None:
     ap.add_argument("--methods", nargs="+", default=list(METHODS))
     ap.add_argument("--closed-loop", type=float, default=1e5,
                     help="samples of the closed-loop comparison (0: skip it)")
+    ap.add_argument("--stage-size", action="store_true",
+                    help="only the identify-stage-size timings (module docstring)")
     args = ap.parse_args()
     if args.worker:
         worker(*args.worker)
+        return
+    if args.stage_size:
+        stage_size_table()
         return
     print(f"OMP_NUM_THREADS={os.environ.get('OMP_NUM_THREADS', 'unset')}, "
           f"{os.cpu_count()} CPUs; open loop, 20 dB white output noise")

@@ -30,6 +30,24 @@ def _variants(*extra: dict) -> dict:
 
 _PAIR = {"name": "p", "inputs": ["motor_torque_driver"], "outputs": ["speed_gb1_hss"]}
 
+_MS = {"name": "ms", "base": "speed_up", "setpoint": "torque", "signal": "multisine",
+       "phases": "schroeder", "band": [1.0, 450.0], "rms": 2000.0, "period": 5.0}
+_PRBS = {"name": "pr", "base": "speed_up", "setpoint": "speed", "signal": "prbs",
+         "band": [0.0, 450.0], "rms": 10.0}
+
+
+def _designed(*entries: dict) -> dict:
+    """campaign.designed holding ``entries`` (a list: replaces the configured one)."""
+    return {"campaign": {"designed": list(entries)}}
+
+
+def _ripple(**change) -> dict:
+    """noise.motor_ripple.driver changed by ``change`` (None deletes a key)."""
+    driver = {"broadband": 150.0, "pole_pairs": 2,
+              "pulsating": [{"harmonic": 6, "amplitude": 100.0}], **change}
+    return {"noise": {"motor_ripple": {"driver": {k: v for k, v in driver.items()
+                                                  if v is not None}}}}
+
 #: (id, category, overlay, key path named by the error)
 CASES: list[tuple[str, str, dict, str]] = [
     # unknown keys: typos, at every level (the schema is closed everywhere)
@@ -217,6 +235,50 @@ CASES: list[tuple[str, str, dict, str]] = [
     ("removal_version_without_families", "removal",
      {"tsa": {"tests": []}, "identify": {"versions": ["clean", "regression"]}},
      "tsa.tests"),
+    # measured-like noise (issue 14): per-motor ripple, encoder, tachometer jitter
+    ("ripple_old_scalar_form", "noise", {"noise": {"motor_ripple": {"driver": 150.0}}},
+     "noise.motor_ripple.driver"),
+    ("ripple_typo", "noise", _ripple(pulsatig=[]), "noise.motor_ripple.driver.pulsatig"),
+    ("ripple_harmonic_zero", "noise",
+     _ripple(pulsating=[{"harmonic": 0, "amplitude": 10.0}]),
+     "noise.motor_ripple.driver.pulsating[0].harmonic"),
+    ("ripple_negative_amplitude", "noise",
+     _ripple(pulsating=[{"harmonic": 6, "amplitude": -1.0}]),
+     "noise.motor_ripple.driver.pulsating[0].amplitude"),
+    ("ripple_pole_pairs_zero", "noise", _ripple(pole_pairs=0),
+     "noise.motor_ripple.driver.pole_pairs"),
+    ("encoder_zero_counts", "noise", {"noise": {"encoder": {"counts_per_rev": 0}}},
+     "noise.encoder.counts_per_rev"),
+    ("jitter_negative", "noise", {"tachometer": {"jitter": -1e-6}}, "tachometer.jitter"),
+    ("jitter_near_pulse_interval", "noise", {"tachometer": {"jitter": 5e-3}},
+     "tachometer.jitter"),
+    ("torque_limit_zero", "noise", {"bench": {"torque_limit": {"driver": 0.0}}},
+     "bench.torque_limit.driver"),
+    # designed-excitation tests
+    ("designed_typo", "designed", _designed({**_MS, "amplitude": 1.0}),
+     "campaign.designed[0].amplitude"),
+    ("designed_unknown_signal", "designed", _designed({**_MS, "signal": "chirp"}),
+     "campaign.designed[0].signal"),
+    ("designed_name_of_ramp_test", "designed", _designed({**_MS, "name": "speed_up"}),
+     "campaign.designed[0].name"),
+    ("designed_name_twice", "designed", _designed(_MS, {**_PRBS, "name": "ms"}),
+     "campaign.designed[1].name"),
+    ("designed_base_not_simulated", "designed", _designed({**_MS, "base": "torque_up"}),
+     "campaign.designed[0].base"),
+    ("designed_band_above_nyquist", "designed", _designed({**_MS, "band": [1.0, 2600.0]}),
+     "campaign.designed[0].band"),
+    ("designed_band_reversed", "designed", _designed({**_MS, "band": [100.0, 10.0]}),
+     "campaign.designed[0].band"),
+    ("designed_prbs_with_phases", "designed", _designed({**_PRBS, "phases": "random"}),
+     "campaign.designed[0].phases"),
+    ("designed_prbs_band_too_high", "designed", _designed({**_PRBS, "band": [0.0, 2000.0]}),
+     "campaign.designed[0].band"),
+    ("designed_period_beyond_record", "designed", _designed({**_MS, "period": 100.0}),
+     "campaign.designed[0].period"),
+    ("designed_beyond_torque_limit", "designed", _designed({**_MS, "rms": 20000.0}),
+     "campaign.designed[0].rms"),
+    ("identify_unknown_test", "designed", {"identify": {"tests": ["speed_up", "ms_torqe"]}},
+     "identify.tests[1]"),
     # closed-loop stability
     ("unstable_torque_ki", "stability", {"bench": {"torque_controller": {"ki": 500.0}}},
      "bench.torque_controller.ki"),

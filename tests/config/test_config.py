@@ -41,6 +41,10 @@ def _minimal():
     sc, tc = full["bench"]["speed_controller"], full["bench"]["torque_controller"]
     cfg["bench"] = {**full["bench"], "speed_controller": {"kp": sc["kp"], "ki": sc["ki"]},
                     "torque_controller": {"kp": tc["kp"], "ki": tc["ki"]}}
+    del cfg["bench"]["torque_limit"]
+    cfg["noise"] = {"sensor": full["noise"]["sensor"],
+                    "motor_ripple": {m: {"broadband": r["broadband"]}
+                                     for m, r in full["noise"]["motor_ripple"].items()}}
     cfg["campaign"] = {k: full["campaign"][k] for k in
                        ("nominal", "step", "full_range", "settle", "hold", "sample_rate")}
     cfg["excitation"] = {"load_reference": 16250.0}
@@ -104,12 +108,15 @@ def test_derived_defaults():
     raw["tsa"]["variants"] = [{"name": "a", "cycles": ["hss"]},
                               {"name": "b", "cycles": ["mesh2"], "averaging": "quadratic"},
                               {"name": "c", "cycles": ["hss", "mesh2"]}]
-    raw["sweep"]["noise"] = {"motor_ripple": {"driven": 150.0}}
+    loud = {"broadband": 300.0, "pole_pairs": 3, "pulsating": []}
+    raw["sweep"]["noise"] = {"motor_ripple": {"driven": loud}}
     cfg = validate(raw)
     assert [v["averaging"] for v in cfg["tsa"]["variants"]] == ["sliding", "quadratic",
                                                                  "sliding"]
-    assert cfg["sweep"]["noise"] == {"motor_ripple": {"driver": 150.0, "driven": 150.0},
-                                     "sensor": raw["noise"]["sensor"]}
+    # every level the sweep does not give is the top-level one, motor by motor
+    assert cfg["sweep"]["noise"] == {
+        "motor_ripple": {"driver": cfg["noise"]["motor_ripple"]["driver"], "driven": loud},
+        "sensor": raw["noise"]["sensor"], "encoder": cfg["noise"]["encoder"]}
     assert cfg["identify"]["tests"] == cfg["campaign"]["tests"]
     assert cfg["identify"]["best"] == {"test": "speed_up", "profile": "square",
                                        "pairing": raw["identify"]["pairings"][0]["name"],
@@ -126,7 +133,8 @@ def test_merge_on_a_loaded_config_derives_again():
         "sliding", "quadratic", "sliding", "sliding"]
     louder = validate(merge(cfg, {"noise": {"sensor": {"speed": 0.01}}}))
     assert louder["sweep"]["noise"]["sensor"]["speed"] == 0.01
-    assert louder["sweep"]["noise"]["motor_ripple"]["driven"] == 150.0   # explicit: kept
+    quieter = validate(merge(cfg, {"noise": {"encoder": {"counts_per_rev": 4096}}}))
+    assert quieter["sweep"]["noise"]["encoder"]["counts_per_rev"] == 4096   # derived again
     assert validate(cfg) == cfg
 
 

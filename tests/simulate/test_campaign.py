@@ -268,8 +268,10 @@ def test_other_seed_changes_only_the_noise(records, cfg_small):
 
 def test_without_noise_seed_changes_nothing(cfg_small):
     """Noise switched off: two seeds give identical signals (the seed only draws noise)."""
-    quiet = {"noise": {"motor_ripple": {"driver": 0.0, "driven": 0.0},
-                       "sensor": {"speed": 0.0, "torque": 0.0}}}
+    still = {"broadband": 0.0, "pulsating": []}
+    quiet = {"noise": {"motor_ripple": {"driver": still, "driven": still},
+                       "sensor": {"speed": 0.0, "torque": 0.0}},
+             "tachometer": {"jitter": 0.0}}
     a = sim.test(_small_seed(1, **quiet), "torque_down", "square")
     b = sim.test(_small_seed(2, **quiet), "torque_down", "square")
     assert a.attrs["seed"] != b.attrs["seed"]

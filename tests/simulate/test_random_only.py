@@ -41,19 +41,32 @@ def test_only_the_excitation_is_switched_off(cfg):
     quiet = random_only(cfg)
     assert all(s["amplitude"] == 0 for s in quiet["excitation"]["shaft_orders"])
     assert all(m["amplitude"] == 0 for m in quiet["excitation"]["mesh"])
-    assert quiet["noise"] == cfg["noise"] and quiet["seed"] == cfg["seed"]
+    assert quiet["seed"] == cfg["seed"]
     assert any(s["amplitude"] > 0 for s in cfg["excitation"]["shaft_orders"])  # unchanged
+    # the converters' pulsating torque is angle-locked too: off; the broadband ripple and
+    # the sensor noise stay
+    for section in (quiet["noise"], quiet["sweep"]["noise"]):
+        for spec in section["motor_ripple"].values():
+            assert spec["pulsating"] and all(p["amplitude"] == 0 for p in spec["pulsating"])
+            assert spec["broadband"] > 0
+        assert section["sensor"] == cfg["noise"]["sensor"]
 
 
 def test_sweep_minus_random_only_is_the_harmonic_part(cfg):
     full, rnd = sweep(cfg), sweep(random_only(cfg))
-    # the same draws: the clean (noise-free, excitation-free) signals are bit-identical
-    assert np.array_equal(full.torque_meter_driven.values, rnd.torque_meter_driven.values)
-    # the difference is angle-locked: lines at the excited orders of the HSS angle explain
-    # it, and explain almost none of the random-only record
-    orders = [float(o) for v in excitation_families(cfg).values() for o in v]
+    # the families of the sweep's own noise section (its pulsating torque: the motor family)
+    families = excitation_families({**cfg, "noise": cfg["sweep"]["noise"]})
+    assert families["motor"]  # the default's converters pulsate
+    orders = [float(o) for v in families.values() for o in v]
     keep = full.time.values > 1.0  # past the start of the excitation's response
     t, theta = full.time.values[keep], full.angle_gb1_hss.values[keep]
+    # the same draws: the clean signals (set-points and ripple, no sensor noise) differ by
+    # the pulsating torque's response only, lines at the motor orders
+    clean = (full.torque_meter_driven.values - rnd.torque_meter_driven.values)[keep]
+    assert np.std(clean) > 1.0  # N m
+    assert _angle_locked_share(clean, theta, t, [float(o) for o in families["motor"]]) > 0.999
+    # the difference is angle-locked: lines at the excited orders of the HSS angle explain
+    # it, and explain almost none of the random-only record
     harmonic = (full[SIGNAL].values - rnd[SIGNAL].values)[keep]
     assert np.std(harmonic) > 1.0  # N m: the excitation is there
     assert _angle_locked_share(harmonic, theta, t, orders) > 0.999

@@ -39,6 +39,7 @@ rule tsa:
         spectra=config["spectra"],
         stages=config["gearbox"]["stages"],
         excitation=config["excitation"],
+        noise=config["sweep"]["noise"],  # the pulsating torque: the motor family
     output:
         nc=f"{RESULTS}/tsa/{{variant}}.nc",
     log:

@@ -2,6 +2,7 @@
 # harmonic removal). model (truth.nc) + simulate + tsa_tests -> identify
 # {test}_{profile}_{method} -> table + figures.
 from gbpipe.identify import VALIDATION_PARTNER, VERSIONS
+from gbpipe.simulate import base_test
 
 # identification versions that are a removal method of their own (rules removal_tests in
 # removal.smk; tsa has tsa_tests)
@@ -14,6 +15,12 @@ def _id_signals():
     for p in config["identify"]["pairings"]:
         names += [n for n in p["inputs"] + p["outputs"] if n not in names]
     return names
+
+
+def _partner(test):
+    # the validation record of a test: the mirror of its ramp test (a designed test is
+    # validated on the plain mirror test, data the fit never saw)
+    return VALIDATION_PARTNER[base_test(config, test)]
 
 
 def _id_jobs():
@@ -66,14 +73,14 @@ rule identify:
         method="pbsid|moesp|n4sid",
     input:
         record=f"{RESULTS}/simulate/{{test}}_{{profile}}.nc",
-        validation=lambda w: f"{RESULTS}/simulate/{VALIDATION_PARTNER[w.test]}_{w.profile}.nc",
+        validation=lambda w: f"{RESULTS}/simulate/{_partner(w.test)}_{w.profile}.nc",
         tsa_record=f"{RESULTS}/tsa/tests/{{test}}_{{profile}}.nc",
         tsa_validation=lambda w: (
-            f"{RESULTS}/tsa/tests/{VALIDATION_PARTNER[w.test]}_{w.profile}.nc"),
+            f"{RESULTS}/tsa/tests/{_partner(w.test)}_{w.profile}.nc"),
         # per removal version: the record after it, then the validation record after it
         removed=lambda w: [f"{RESULTS}/removal/tests/{m}/{t}_{w.profile}.nc"
                            for m in REMOVAL_VERSIONS
-                           for t in (w.test, VALIDATION_PARTNER[w.test])],
+                           for t in (w.test, _partner(w.test))],
         truth=rules.model.output.truth,
         code=code("identify.py"),
     params:

@@ -4,9 +4,12 @@
 # figure; and on the tests (scored against the random-only tests), as identification
 # versions named after the method.
 REMOVAL_METHODS = config["removal"]["methods"]
-# what the families removed derive from (gbpipe.harmonics.excitation_families, test_families)
+# what the families removed derive from (gbpipe.harmonics.excitation_families, test_families):
+# the gear excitation and the motors' pulsating torque of the record (the sweep has its own
+# noise section)
 FAMILIES_CFG = {"gearbox": {"stages": config["gearbox"]["stages"]},
-                "excitation": config["excitation"]}
+                "excitation": config["excitation"], "noise": config["noise"]}
+SWEEP_FAMILIES_CFG = {**FAMILIES_CFG, "noise": config["sweep"]["noise"]}
 
 
 def removal_targets():
@@ -76,7 +79,7 @@ rule removal:
         code=code("removal.py"),
     params:
         method_cfg=lambda w: config["removal"][w.method],
-        families_cfg=FAMILIES_CFG,
+        families_cfg=SWEEP_FAMILIES_CFG,
         spectra=config["spectra"],
     output:
         nc=f"{RESULTS}/removal/{{method}}.nc",

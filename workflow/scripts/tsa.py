@@ -7,7 +7,7 @@ snakemake = globals()["snakemake"]
 log = io.setup_log(snakemake.log[0])
 p, w = snakemake.params, snakemake.wildcards
 ds = tsa_variant(io.read(snakemake.input.sweep), io.read(snakemake.input.bench), w.variant,
-                 p.tsa, p.spectra, p.stages, p.excitation)
+                 p.tsa, p.spectra, p.stages, p.excitation, p.noise)
 io.write(ds, snakemake.output.nc, sources=snakemake.input,
          stage="tsa", config=dict(p), wildcards={"variant": w.variant},
          float32=True, title=f"TSA harmonic removal on the sweep, variant {w.variant}")

@@ -82,7 +82,11 @@ def derive(cfg: dict[str, Any], order_bound: Callable[[Mapping[str, Any]], int],
         _fill(v, "averaging", tsa["averaging"], ("tsa", "variants", i), derived)
     sweep_noise = cfg["sweep"]["noise"]
     for group, levels in cfg["noise"].items():
-        sweep_noise.setdefault(group, {})
+        if group not in sweep_noise:
+            # a whole group derived: an overlay's merge then drops it whole, and the
+            # schema's defaults of the group (noise.encoder) cannot stand in for it
+            _fill(sweep_noise, group, levels, ("sweep", "noise"), derived)
+            continue
         for name, value in levels.items():
             _fill(sweep_noise[group], name, value, ("sweep", "noise", group), derived)
     idc = cfg["identify"]

@@ -14,10 +14,12 @@ from typing import Any
 from gbpipe.config.schema_validation import suggest
 from gbpipe.errors import ConfigError
 from gbpipe.model.truth import TORQUES
+from gbpipe.simulate import base_test, test_names
 from gbpipe.simulate.profiles import test_duration
 from gbpipe.simulate.signals import SIGNALS
 
-__all__ = ["DECIMATION_TRANSIENT", "decimated_samples", "min_samples", "check_identify"]
+__all__ = ["DECIMATION_TRANSIENT", "decimated_samples", "min_samples", "check_tests",
+           "check_identify"]
 
 #: Output samples the anti-aliasing filter's start-up transient takes from a decimated
 #: record (a 40-taps-per-factor FIR: one filter length, 40 samples after decimation).
@@ -28,7 +30,7 @@ def decimated_samples(cfg: Mapping[str, Any], test: str, profile: str) -> int:
     """Samples of one test record after decimation to ``identify.sample_rate``."""
     fs = float(cfg["campaign"]["sample_rate"])
     q = round(fs / float(cfg["identify"]["sample_rate"]))
-    n = round(test_duration(cfg["campaign"], test, profile) * fs)
+    n = round(test_duration(cfg["campaign"], base_test(cfg, test), profile) * fs)
     return max(0, n // q - (DECIMATION_TRANSIENT if q > 1 else 0))
 
 
@@ -130,10 +132,22 @@ def _check_windows(cfg: Mapping[str, Any]) -> None:
                               f"channels need {need} samples for {method}, but the {test} "
                               f"({profile}) record has {have} at {idc['sample_rate']:g} Hz; "
                               "shorten the windows or lengthen campaign.hold")
-    shortest = min(test_duration(cfg["campaign"], t, p) for t, p in tests)
+    shortest = min(test_duration(cfg["campaign"], base_test(cfg, t), p) for t, p in tests)
     if idc["fit_segment"] > shortest:
         raise ConfigError("identify.fit_segment", f"{idc['fit_segment']:g} s is longer than "
                           f"the shortest validation record ({shortest:g} s)")
+
+
+def check_tests(cfg: Mapping[str, Any]) -> None:
+    """Every identified test is a ramp test or a designed test of the campaign (checked
+    before anything derives a length or a revolution count from it)."""
+    if cfg["measured"]:
+        return
+    known = test_names(cfg)
+    for i, t in enumerate(cfg["identify"]["tests"]):
+        if t not in known:
+            raise ConfigError(f"identify.tests[{i}]", f"'{t}' is neither a ramp test of "
+                              f"campaign.tests nor a campaign.designed name; {suggest(t, known)}")
 
 
 def check_identify(cfg: Mapping[str, Any]) -> None:

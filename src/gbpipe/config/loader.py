@@ -9,9 +9,9 @@ replaced), then :func:`validate` makes it complete and checks it, in this order:
 2. the gearbox: teeth that assemble and mesh, list lengths per stage, cycle names
    (:mod:`gbpipe.config.gearbox`);
 3. the defaults derived from other keys (:mod:`gbpipe.config.derive`);
-4. what the records, the harmonic removal, the spectra and the identification will need
-   (:mod:`gbpipe.config.records`, :mod:`~gbpipe.config.processing`,
-   :mod:`~gbpipe.config.identification`);
+4. what the records (and designed tests), the harmonic removal, the spectra and the
+   identification will need (:mod:`gbpipe.config.records`, :mod:`~gbpipe.config.designed`,
+   :mod:`~gbpipe.config.processing`, :mod:`~gbpipe.config.identification`);
 5. closed-loop stability of the configured controller gains (:mod:`gbpipe.config.bounds`).
 
 Every error is a :class:`gbpipe.errors.ConfigError` naming the key path, the value and
@@ -28,7 +28,15 @@ from typing import Any
 
 import yaml
 
-from gbpipe.config import bounds, gearbox, identification, measured, processing, records
+from gbpipe.config import (
+    bounds,
+    designed,
+    gearbox,
+    identification,
+    measured,
+    processing,
+    records,
+)
 from gbpipe.config.derive import Config, derive
 from gbpipe.config.schema_validation import apply_schema
 from gbpipe.errors import ConfigError
@@ -78,6 +86,8 @@ def validate(cfg: Mapping[str, Any], *, check_stability: bool = True) -> Config:
     gearbox.check_cycle_names(out)
     out = derive(out, bounds.order_bound, bounds.plant_order)
     records.check_campaign(out)
+    designed.check_designed(out)
+    identification.check_tests(out)
     records.check_sweep(out)
     processing.check_tsa(out)
     processing.check_spectra(out)

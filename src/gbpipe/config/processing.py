@@ -27,6 +27,7 @@ from gbpipe.errors import ConfigError
 from gbpipe.harmonics import excitation_families, family_names, test_families
 from gbpipe.identify import VERSIONS
 from gbpipe.kinematics import order_of
+from gbpipe.simulate import base_test
 from gbpipe.simulate.profiles import sweep_revolutions, test_revolutions
 from gbpipe.simulate.signals import recorded_signals
 
@@ -90,8 +91,8 @@ def check_tsa(cfg: Mapping[str, Any]) -> None:
     camp = cfg["campaign"]
     # the validation partner of each test has the same length and no fewer revolutions
     # than the lowest-speed record of the identified set
-    shortest = min((test_revolutions(camp, t, p), t, p) for t in idc["tests"]
-                    for p in idc["profiles"])
+    shortest = min((test_revolutions(camp, base_test(cfg, t), p), t, p)
+                   for t in idc["tests"] for p in idc["profiles"])
     _check_removal(cfg, "tsa.tests", tsa["tests"], "block", shortest[0],
                    f"{shortest[1]} ({shortest[2]}) test")
 

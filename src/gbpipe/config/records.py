@@ -65,6 +65,12 @@ def _check_clock(cfg: Mapping[str, Any], rpm_max: float) -> None:
         raise ConfigError("tachometer.clock_hz", f"{tach['clock_hz']:g} Hz cannot time "
                           f"{rate:.1f} pulses/s ({tach['pulses_per_rev']} per revolution at "
                           f"{rpm_max:g} rpm); use at least {2 * rate:.0f} Hz")
+    # jitter must not reorder pulses nor trip the tachometer checks (25 % of an interval):
+    # 5 sigma below a tenth of the shortest interval
+    if 50 * tach["jitter"] * rate > 1:
+        raise ConfigError("tachometer.jitter", f"{tach['jitter']:g} s rms is not far below "
+                          f"the shortest pulse interval {1 / rate:.3g} s (at {rpm_max:g} rpm); "
+                          f"use at most {1 / (50 * rate):.3g} s")
 
 
 def check_campaign(cfg: Mapping[str, Any]) -> None:

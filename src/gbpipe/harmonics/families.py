@@ -77,18 +77,28 @@ def cycle_orders(stages: Sequence[Mapping[str, Any]], cycles: Sequence[str]) -> 
 
 
 def family_names(stages: Sequence[Mapping[str, Any]]) -> list[str]:
-    """Every family a gearbox can have: ``shaft``, then ``mesh<k>`` per stage (k from 1)."""
-    return ["shaft", *(f"mesh{k}" for k in range(1, len(stages) + 1))]
+    """Every family a bench can have: ``shaft``, ``mesh<k>`` per stage (k from 1), then
+    ``motor`` (the converter's pulsating torque)."""
+    return ["shaft", *(f"mesh{k}" for k in range(1, len(stages) + 1)), "motor"]
 
 
 def excitation_families(cfg: Mapping[str, Any]) -> dict[str, list[Fraction]]:
     """Orders of every configured excitation, grouped by source.
 
+    Parameters
+    ----------
+    cfg : mapping
+        ``gearbox.stages`` and ``excitation``; with ``noise`` (the record's noise section:
+        ``noise``, or ``sweep.noise`` for the sweep) also the motors' pulsating torque.
+
     Returns
     -------
     dict
         ``"shaft"`` → HSS orders of the shaft excitation; ``"mesh<k>"`` → the harmonics of
-        stage k's mesh order, all as Fractions.
+        stage k's mesh order; ``"motor"`` → the orders ``harmonic x pole_pairs`` of the
+        converters' pulsating torque (both motors turn at the HSS speed), all as Fractions.
+        The pulsating torque is locked to the shaft angle like the gear excitation, so it
+        is harmonic content, removed with it and absent from the random-only records.
     """
     stages = cfg["gearbox"]["stages"]
     exc = cfg["excitation"]
@@ -98,6 +108,10 @@ def excitation_families(cfg: Mapping[str, Any]) -> dict[str, list[Fraction]]:
         o = order_of(stages, f"mesh{m['stage']}")
         fam[f"mesh{m['stage']}"] = [h * o for h, w in enumerate(m["harmonics"], start=1)
                                     if w > 0 and m["amplitude"] > 0]
+    if "noise" in cfg:
+        fam["motor"] = sorted({Fraction(int(line["harmonic"]) * int(spec["pole_pairs"]))
+                               for spec in cfg["noise"]["motor_ripple"].values()
+                               for line in spec["pulsating"] if line["amplitude"] > 0})
     return {k: v for k, v in fam.items() if v}
 
 

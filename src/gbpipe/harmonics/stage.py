@@ -152,7 +152,8 @@ def sweep_waterfalls(sweep: xr.Dataset, spec: Mapping[str, Any]) -> xr.Dataset:
 def tsa_variant(sweep: xr.Dataset, bench: xr.Dataset, variant: str,
                 tsa_cfg: Mapping[str, Any], spec: Mapping[str, Any],
                 stages: Sequence[Mapping[str, Any]],
-                excitation: Mapping[str, Any]) -> xr.Dataset:
+                excitation: Mapping[str, Any],
+                noise: Mapping[str, Any] | None = None) -> xr.Dataset:
     """One TSA variant on the sweep: the ``tsa`` stage.
 
     Parameters
@@ -170,6 +171,9 @@ def tsa_variant(sweep: xr.Dataset, bench: xr.Dataset, variant: str,
         ``cfg["spectra"]``.
     stages, excitation
         ``cfg["gearbox"]["stages"]`` and ``cfg["excitation"]``.
+    noise : mapping, optional
+        The sweep's noise section (``cfg["sweep"]["noise"]``): its pulsating torque is the
+        ``motor`` family of the metrics.
 
     Returns
     -------
@@ -184,7 +188,8 @@ def tsa_variant(sweep: xr.Dataset, bench: xr.Dataset, variant: str,
     x = sig.values.astype(float)
     cycles = cycle_orders(stages, tsa_cfg["cycles"])
     families = removed_families(
-        excitation_families({"gearbox": {"stages": stages}, "excitation": excitation}), cycles)
+        excitation_families({"gearbox": {"stages": stages}, "excitation": excitation,
+                             **({"noise": noise} if noise else {})}), cycles)
     modes = watched_modes(bench, spec)
     log.info("variant %s: cycles %s (orders %s); removed families %s", variant,
              tsa_cfg["cycles"], [f"{float(c):.4f}" for c in cycles], list(families))

@@ -17,8 +17,8 @@ models_dataset, model_matrices
     The identify job's NetCDF, and one stored model back as matrices.
 fit_model, validation_fit, reflect_out_of_band
     One subspace fit and its validation fit.
-condition, decimate, version_signals
-    Records -> identification data.
+condition, decimate, version_signals, ConditionedRecord
+    Records -> identification data (each signal of each data version conditioned once).
 frf_error_db, match_bandwidth, identified_modes, match_modes
     Identified vs reference model.
 Reference, truth_reference, nonparametric_reference, within_reference
@@ -27,6 +27,7 @@ Reference, truth_reference, nonparametric_reference, within_reference
 """
 
 from gbpipe.identify.dataset import MODE_TOLERANCE, model_matrices, models_dataset
+from gbpipe.identify.design import SOURCES, error_bound_db, predict, predict_test
 from gbpipe.identify.fitting import METHODS, fit_model, reflect_out_of_band, validation_fit
 from gbpipe.identify.metrics import (
     frf_error_db,
@@ -37,6 +38,7 @@ from gbpipe.identify.metrics import (
 from gbpipe.identify.prepare import (
     VALIDATION_PARTNER,
     VERSIONS,
+    ConditionedRecord,
     condition,
     decimate,
     decimation_filter,
@@ -50,12 +52,14 @@ from gbpipe.identify.reference import (
     within_reference,
 )
 from gbpipe.identify.stage import holdout_split, identify_record, record_label
-from gbpipe.identify.table import SHORT, table_rows
+from gbpipe.identify.table import SHORT, best_pairings, table_rows
 
 __all__ = ["identify_record", "holdout_split", "record_label", "Reference",
            "truth_reference", "nonparametric_reference", "within_reference", "table_rows",
-           "models_dataset",
+           "best_pairings", "models_dataset",
            "model_matrices", "fit_model", "validation_fit", "reflect_out_of_band",
-           "condition", "decimate", "decimation_filter", "operating_point", "version_signals",
+           "condition", "ConditionedRecord", "decimate", "decimation_filter", "operating_point",
+           "version_signals",
            "frf_error_db", "match_bandwidth", "identified_modes", "match_modes", "METHODS",
-           "VERSIONS", "VALIDATION_PARTNER", "SHORT", "MODE_TOLERANCE"]
+           "VERSIONS", "VALIDATION_PARTNER", "SHORT", "MODE_TOLERANCE",
+           "SOURCES", "error_bound_db", "predict", "predict_test"]

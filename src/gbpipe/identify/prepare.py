@@ -25,7 +25,7 @@ current noise into "past" samples, which the closed-loop consistency of PBSID re
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 
 import numpy as np
 import xarray as xr
@@ -35,7 +35,7 @@ from gbpipe.errors import ConfigError, DataError
 from gbpipe.io import measured_signal
 
 __all__ = ["VERSIONS", "VALIDATION_PARTNER", "operating_point", "decimation_filter",
-           "decimate", "condition", "version_signals"]
+           "decimate", "condition", "version_signals", "ConditionedRecord"]
 
 #: Data versions that need no removal method of their own (``tsa`` is the paper's TSA of
 #: ``tsa.tests``); any other version names a ``removal`` method run on the tests.
@@ -204,3 +204,47 @@ def version_signals(ds: xr.Dataset, names: Sequence[str], version: str,
                             "recorded signals")
         out.append(np.asarray(da.values, dtype=float))
     return out
+
+
+class ConditionedRecord:
+    """The conditioned signals of one record, each (data version, signal) computed once.
+
+    An identify job fits every pairing x data version, and the pairings share their
+    signals (each HSS speed is the output of three pairings): conditioning per pairing
+    would decimate the same signal of the same version several times. Here each
+    ``(version, signal)`` is conditioned (:func:`condition`, a single channel) on first
+    use and kept; the decimation works channel by channel, so a stack of such columns is
+    exactly :func:`condition` of the stacked signals.
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        Simulated or measured record.
+    removed : mapping str -> xarray.Dataset or None
+        Per harmonic-removal version, the record after that removal
+        (:func:`version_signals`).
+    fs, settle, fs_out, cutoff : float
+        Record rate [Hz], initial steady state [s], identification rate [Hz] and pass
+        band [share of the new Nyquist], as in :func:`condition`.
+    """
+
+    def __init__(self, ds: xr.Dataset, removed: Mapping[str, xr.Dataset | None], fs: float,
+                 settle: float, fs_out: float, cutoff: float = 0.8) -> None:
+        self.ds, self.removed = ds, dict(removed)
+        self.fs, self.settle, self.fs_out, self.cutoff = fs, settle, fs_out, cutoff
+        self._columns: dict[tuple[str, str], np.ndarray] = {}
+
+    def __call__(self, names: Sequence[str], version: str) -> np.ndarray:
+        """Conditioned ``names`` of data version ``version``, shape (n_out, len(names)).
+
+        Raises what :func:`version_signals` and :func:`condition` raise.
+        """
+        missing = [n for n in dict.fromkeys(names) if (version, n) not in self._columns]
+        if missing:
+            # one decimation for every new signal of this version
+            x = condition(version_signals(self.ds, missing, version,
+                                          self.removed.get(version)),
+                          self.fs, self.settle, self.fs_out, self.cutoff)
+            for k, n in enumerate(missing):
+                self._columns[version, n] = x[:, k]
+        return np.column_stack([self._columns[version, n] for n in names])

@@ -69,13 +69,27 @@ class Reference(NamedTuple):
         return float(f[-1]) if f.size else 0.0
 
 
-def truth_reference(truth: xr.Dataset, pairing: Mapping[str, Any]) -> Reference:
+def truth_reference(truth: xr.Dataset, pairing: Mapping[str, Any],
+                    record: xr.Dataset | None = None) -> Reference:
     """True FRF and modes of one pairing from the model stage's ``truth.nc``.
+
+    Parameters
+    ----------
+    truth : xarray.Dataset
+        :func:`gbpipe.model.truth_dataset`.
+    pairing : mapping
+        One of ``identify.pairings`` (``name``, ``inputs``, ``outputs``).
+    record : xarray.Dataset, optional
+        The record identified: the units of its signals (``units`` attribute) must be
+        those of the truth's ``input_units``/``output_units``, since the FRFs are compared
+        in physical units (e.g. N m/N m = 1 for a motor torque -> torque meter pairing,
+        rad/s per N m for a speed).
 
     Raises
     ------
     gbpipe.errors.DataError
-        The pairing is not in ``truth`` or its signals differ (a stale truth file).
+        The pairing is not in ``truth``, its signals differ (a stale truth file), or a
+        signal's unit differs from the truth's.
     """
     name, ins, outs = pairing["name"], list(pairing["inputs"]), list(pairing["outputs"])
     if name not in truth.pairing.values:
@@ -87,6 +101,15 @@ def truth_reference(truth: xr.Dataset, pairing: Mapping[str, Any]) -> Reference:
     if t_ins != ins or t_outs != outs:
         raise DataError("truth.nc", f"pairing '{name}' is {t_ins} -> {t_outs}, the config "
                         f"says {ins} -> {outs}: rerun the model stage")
+    if record is not None and "output_units" in sel.coords:
+        want = dict(zip(t_ins + t_outs, [str(x) for x in sel.input_units.values[:len(ins)]]
+                        + [str(x) for x in sel.output_units.values[:len(outs)]], strict=True))
+        for sig, unit in want.items():
+            got = str(record[sig].attrs.get("units", unit)) if sig in record else unit
+            if got != unit:
+                raise DataError(sig, f"is in {got!r} in the record but in {unit!r} in "
+                                f"truth.nc (pairing '{name}'): store the record in SI "
+                                "units (gbpipe.units) or rerun the model stage")
     g = (sel.frf_true_real.values + 1j * sel.frf_true_imag.values)[:, :len(outs), :len(ins)]
     fm, zm = sel.mode_frequency_true.values, sel.mode_damping_true.values
     keep = np.isfinite(fm)

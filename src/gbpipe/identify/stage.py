@@ -21,7 +21,7 @@ from gbpipe.errors import StageError
 from gbpipe.identify.dataset import models_dataset
 from gbpipe.identify.fitting import METHODS, fit_model, validation_fit
 from gbpipe.identify.metrics import identified_modes, match_modes
-from gbpipe.identify.prepare import condition, version_signals
+from gbpipe.identify.prepare import ConditionedRecord
 from gbpipe.identify.reference import (
     Reference,
     nonparametric_reference,
@@ -124,30 +124,28 @@ def identify_record(cfg: Mapping[str, Any], record: xr.Dataset,
             raise ValueError(f"version {version!r} needs the record and validation record "
                              f"after that harmonic removal (removed[{version!r}])")
     fs = float(record.attrs["sample_rate"])
-    settle = float(cfg["campaign"]["settle"])
     fs_id = float(s["sample_rate"])
     dt = 1.0 / fs_id
-
-    def prepared(ds: xr.Dataset | None, names: list[str], version: str,
-                 removed_ds: xr.Dataset | None) -> np.ndarray | None:
-        if ds is None:
-            return None
-        return condition(version_signals(ds, names, version, removed_ds), fs, settle, fs_id,
-                         s["lowpass"])
+    # each (record, version, signal) is conditioned once for all pairings
+    grid = (fs, float(cfg["campaign"]["settle"]), fs_id, s["lowpass"])
+    rec = ConditionedRecord(record, {v: tr for v, (tr, _) in removed.items()}, *grid)
+    val = (None if validation is None else
+           ConditionedRecord(validation, {v: tv for v, (_, tv) in removed.items()}, *grid))
 
     results = []
     for p in s["pairings"]:
-        ref_truth = truth_reference(truth, p) if truth is not None else None
+        ref_truth = truth_reference(truth, p, record) if truth is not None else None
+        # a mapped set-point of a closed-loop bench record: the nonparametric estimate
+        # goes through it, free of the feedback's bias (its version is immaterial)
+        r = rec(p["reference"], "raw") if "reference" in p else None
+        if r is not None and val is None:
+            r = holdout_split(r, s["holdout"])[0]
         for version in s["versions"]:
-            tr, tv = removed.get(version, (None, None))
-            u, y = (prepared(record, p[k], version, tr) for k in ("inputs", "outputs"))
-            uv, yv = (prepared(validation, p[k], version, tv) for k in ("inputs", "outputs"))
-            # a mapped set-point of a closed-loop bench record: the nonparametric estimate
-            # goes through it, free of the feedback's bias (its version is immaterial)
-            r = prepared(record, p["reference"], "raw", None) if "reference" in p else None
-            if validation is None:
+            u, y = rec(p["inputs"], version), rec(p["outputs"], version)
+            if val is None:
                 (u, uv), (y, yv) = holdout_split(u, s["holdout"]), holdout_split(y, s["holdout"])
-                r = None if r is None else holdout_split(r, s["holdout"])[0]
+            else:
+                uv, yv = val(p["inputs"], version), val(p["outputs"], version)
             ref = ref_truth or nonparametric_reference(u, y, fs_id, s, r)
             res = {"pairing": p["name"], "version": version, "inputs": list(p["inputs"]),
                    "outputs": list(p["outputs"]), "ref": ref, "model": None}

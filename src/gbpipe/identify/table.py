@@ -3,13 +3,13 @@ but summaries of what the NetCDF files hold)."""
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from typing import Any
 
 import numpy as np
 import xarray as xr
 
-__all__ = ["SHORT", "table_rows"]
+__all__ = ["SHORT", "table_rows", "best_pairings"]
 
 #: Short names of the pairing signals (table and figure labels).
 SHORT = {"motor_torque_driver": "Tdrv", "motor_torque_driven": "Tdrn",
@@ -31,13 +31,37 @@ def _within_pct(sel: xr.Dataset, ny: int, nu: int, tol: float) -> float:
     return float(100.0 * np.mean(np.all(err[band] <= tol, axis=(1, 2))))
 
 
-def table_rows(datasets: Sequence[xr.Dataset]) -> list[dict[str, Any]]:
+def _predicted(designs: Mapping[tuple[str, str], xr.Dataset], ds: xr.Dataset,
+               pairing: str) -> float:
+    # the design step's predicted band of this pairing on this record (NaN: no prediction)
+    design = designs.get((ds.attrs["test"], ds.attrs["profile"]))
+    if design is None or pairing not in list(design.pairing.values):
+        return float("nan")
+    return float(design.predicted_hz.sel(pairing=pairing))
+
+
+def table_rows(datasets: Sequence[xr.Dataset],
+               designs: Mapping[tuple[str, str], xr.Dataset] | None = None
+               ) -> list[dict[str, Any]]:
     """Rows of ``identification.csv``: one per test x profile x method x pairing x version.
 
-    Every number is read from the datasets (what the NetCDF files store). Rows of the
-    ``tsa`` version also say how much of the clean-data bandwidth harmonic removal
+    Every number is read from the datasets (what the NetCDF files store).
+    ``achieved_hz`` is the match bandwidth against ``reference``; ``predicted_hz`` the
+    band the design step (:mod:`gbpipe.identify.design`) expected from the bench model,
+    the excitation and the noise, before identification ran (NaN without a design file);
+    ``identifiable`` says ``no`` where that prediction is 0 Hz, so that a 0 Hz achieved
+    bandwidth there reads as a limit of the physics, not a failure of the method. Rows of
+    the ``tsa`` version also say how much of the clean-data bandwidth harmonic removal
     recovers: ``100 (bw_tsa - bw_raw) / (bw_clean - bw_raw)`` when clean beats raw.
+
+    Parameters
+    ----------
+    datasets : sequence of xarray.Dataset
+        ``identify`` outputs.
+    designs : mapping (test, profile) -> xarray.Dataset, optional
+        ``design`` outputs (``predicted_hz`` per pairing).
     """
+    designs = dict(designs or {})
     rows = []
     for ds in datasets:
         for k in range(ds.sizes["model"]):
@@ -56,7 +80,9 @@ def table_rows(datasets: Sequence[xr.Dataset]) -> list[dict[str, Any]]:
                 "method": ds.attrs["method"], "pairing": str(sel.pairing.values),
                 "version": str(sel.version.values), "inputs": _short(ins),
                 "outputs": _short(outs), "validation": ds.attrs["validation_test"],
-                "order": int(sel.order), "match_bandwidth_hz": float(sel.match_bandwidth),
+                "order": int(sel.order), "achieved_hz": float(sel.match_bandwidth),
+                "predicted_hz": (pred := _predicted(designs, ds, str(sel.pairing.values))),
+                "identifiable": "unknown" if np.isnan(pred) else ("yes" if pred > 0 else "no"),
                 # what the bandwidth is measured against, and up to where it could be
                 "reference": ds.attrs["reference"],
                 "reference_band_hz": float(sel.reference_band_max),
@@ -82,8 +108,52 @@ def table_rows(datasets: Sequence[xr.Dataset]) -> list[dict[str, Any]]:
         clean, raw = by_key.get(key + ("clean",)), by_key.get(key + ("raw",))
         if clean is None or raw is None:
             continue
-        gain = clean["match_bandwidth_hz"] - raw["match_bandwidth_hz"]
+        gain = clean["achieved_hz"] - raw["achieved_hz"]
         r["recovered_bandwidth_pct"] = (
-            100.0 * (r["match_bandwidth_hz"] - raw["match_bandwidth_hz"]) / gain
+            100.0 * (r["achieved_hz"] - raw["achieved_hz"]) / gain
             if gain > 0 else float("nan"))
     return rows
+
+
+def best_pairings(rows: Sequence[Mapping[str, Any]], versions: Sequence[str]
+                  ) -> list[dict[str, Any]]:
+    """The best pairing of each motor torque by the numbers, not by choice.
+
+    For each input (a motor torque, or both for MIMO) the SISO or MIMO pairing whose
+    identified model reaches the widest achieved bandwidth over every test, profile and
+    method of the given data versions; ties go to the higher fit %.
+
+    Parameters
+    ----------
+    rows : sequence of mapping
+        :func:`table_rows` rows (or the CSV read back: numbers may be strings).
+    versions : sequence of str
+        Data versions considered (e.g. the measured-like ones: everything but ``clean``).
+
+    Returns
+    -------
+    list of dict
+        One row per input set: the winning row's keys, and ``runner_up`` (pairing and its
+        achieved bandwidth [Hz]) so the margin is visible.
+    """
+    def score(r: Mapping[str, Any]) -> tuple[float, float]:
+        fit = float(r["fit_pct"])
+        return float(r["achieved_hz"]), fit if np.isfinite(fit) else -np.inf
+
+    out = []
+    for inputs in sorted({str(r["inputs"]) for r in rows}):
+        cand = [r for r in rows if r["inputs"] == inputs and r["version"] in versions]
+        if not cand:
+            continue
+        # the best model of each pairing, then the pairings ranked
+        per_pairing: dict[str, Mapping[str, Any]] = {}
+        for r in cand:
+            p = str(r["pairing"])
+            if p not in per_pairing or score(r) > score(per_pairing[p]):
+                per_pairing[p] = r
+        ranked = sorted(per_pairing.values(), key=score, reverse=True)
+        best = dict(ranked[0])
+        best["runner_up"] = (f"{ranked[1]['pairing']}: {float(ranked[1]['achieved_hz']):.4g} Hz"
+                             if len(ranked) > 1 else "none")
+        out.append(best)
+    return out

@@ -3,7 +3,12 @@
 Public API
 ----------
 test(cfg, test, profile, measured_like=None)
-    One closed-loop test record (clean and measured-like signals, tachometer pulses).
+    One closed-loop test record (clean and measured-like signals, tachometer pulses) of a
+    ramp test or a designed test (``campaign.designed``).
+test_names(cfg), base_test(cfg, name)
+    Every configured test name (ramp tests, then designed); a designed test's ramp test.
+designed_setpoint(cfg, name, profile), designed_reference(cfg, name, profile)
+    A designed test's signal on its set-point; any test's speed and torque references.
 sweep(cfg)
     The constant-torque speed sweep.
 random_only(cfg)
@@ -21,7 +26,14 @@ The simulator itself is :func:`gbpipe.lti.lsim`. See docs/architecture.md, "Stag
 """
 
 from gbpipe.simulate.campaign import SIGNALS, random_only, steady_state, sweep, test
+from gbpipe.simulate.designed import (
+    base_test,
+    designed_reference,
+    designed_setpoint,
+    test_names,
+)
 from gbpipe.simulate.excitation import multisine, prbs, within_limits
 
-__all__ = ["test", "sweep", "random_only", "steady_state", "SIGNALS",
+__all__ = ["test", "sweep", "random_only", "steady_state", "SIGNALS", "test_names",
+           "base_test", "designed_setpoint", "designed_reference",
            "multisine", "prbs", "within_limits"]

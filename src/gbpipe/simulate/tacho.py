@@ -127,6 +127,7 @@ def pulse_times(
     spacing_error_rad: float | np.ndarray | None = None,
     clock_hz: float | None = None,
     rng: np.random.Generator | int | None = None,
+    jitter_s: float = 0.0,
 ) -> np.ndarray:
     """Times at which a toothed wheel on a shaft produces tachometer pulses.
 
@@ -154,7 +155,12 @@ def pulse_times(
         ``1 / clock_hz`` counted from t = 0 s (a counter latches the number of complete
         clock periods elapsed), so ``t_true - 1/clock_hz < t_reported <= t_true``.
     rng : numpy.random.Generator or int, optional
-        Generator or seed; required when `spacing_error_rad` is a scalar std.
+        Generator or seed; required when `spacing_error_rad` is a scalar std (drawn
+        first) or `jitter_s` > 0.
+    jitter_s : float, optional
+        Pulse-time jitter [s rms] of the pick-up and its trigger: a normal draw added to
+        each time before the clock quantisation, the result kept inside the record
+        (``[t[0], t[-1]]``) and in order. Default 0.
 
     Returns
     -------
@@ -169,8 +175,8 @@ def pulse_times(
     ValueError
         On NaN/inf, mismatched shapes, non-increasing `t`, decreasing `angle` (the
         message names the first offending sample), ``pulses_per_rev < 1``, spacing
-        errors of the wrong shape or >= half a pitch, a scalar std without `rng`, or
-        ``clock_hz <= 0``.
+        errors of the wrong shape or >= half a pitch, a scalar std or a jitter without
+        `rng`, a negative jitter, or ``clock_hz <= 0``.
     """
     if isinstance(pulses_per_rev, bool) or not isinstance(pulses_per_rev, int | np.integer):
         raise ValueError(f"pulses_per_rev must be an integer >= 1, got {pulses_per_rev!r}")
@@ -198,6 +204,11 @@ def pulse_times(
         om = _as_1d_finite(speed, "speed")
         if om.shape != tt.shape:
             raise ValueError(f"speed must have the shape of t {tt.shape}, got {om.shape}")
+    if not np.isfinite(jitter_s) or jitter_s < 0:
+        raise ValueError(f"jitter_s must be a finite time >= 0 s (rms), got {jitter_s}")
+    if jitter_s > 0 and rng is None:
+        raise ValueError("jitter_s > 0: pass rng (a numpy Generator or a seed) to draw it")
+    gen = np.random.default_rng(rng) if isinstance(rng, int | np.integer) else rng
     if clock_hz is not None and (not np.isfinite(clock_hz) or clock_hz <= 0):
         raise ValueError(f"clock_hz must be a finite counter frequency > 0 Hz, got {clock_hz}")
 
@@ -210,7 +221,7 @@ def pulse_times(
                 "spacing_error_rad is a scalar std: pass rng (a numpy Generator or a seed) "
                 "to draw the tooth pattern, or pass the pattern as an array"
             )
-        eps = tooth_errors(ppr, float(spacing_error_rad), rng)
+        eps = tooth_errors(ppr, float(spacing_error_rad), gen)
     else:
         eps = _as_1d_finite(spacing_error_rad, "spacing_error_rad")
         if eps.shape != (ppr,):
@@ -238,6 +249,11 @@ def pulse_times(
     i = np.searchsorted(th, target, side="left") - 1
     h = dt[i]
     times = _invert_hermite(tt[i], h, dth[i], om[i], om[i + 1], target - th[i])
+    if jitter_s > 0:
+        # jitter far below a pulse interval (the config checks it) rarely reorders; a
+        # counter still reports increasing times
+        times = np.sort(np.clip(times + jitter_s * gen.standard_normal(times.size),
+                                tt[0], tt[-1]))
     if clock_hz is not None:
         times = np.floor(times * clock_hz) / clock_hz
     return times

@@ -18,7 +18,13 @@ Modules, one concept each (``docs/architecture.md``, "Package map"):
 * :mod:`.excitation`: the persistent-excitation check (:class:`gbpipe.errors.ExcitationError`);
 * :mod:`.hankel`: Gram matrix and triangular factor of the data windows, least squares on it;
 * :mod:`.order`: order from the singular values;
-* :mod:`.kalman`: steady-state Kalman gain of the innovation form.
+* :mod:`.kalman`: steady-state Kalman gain of the innovation form;
+* :mod:`.bd_regressors`: the simulated regressors of the ``B, D`` least squares;
+* :mod:`.uncertainty`: jackknife confidence bounds of an identified FRF (:func:`frf_bounds`).
+
+Every method accepts several records (experiments) as lists, ``u = [u_0, u_1]``,
+``y = [y_0, y_1]``: each record keeps its own initial state and no data window straddles
+two records.
 
 >>> model = pbsid(u, y, order="auto", past=40, dt=1e-3)          # doctest: +SKIP
 >>> model.frf(freq_hz), model.fit(u_val, y_val), model.ss        # doctest: +SKIP
@@ -36,7 +42,8 @@ from gbpipe.sysid.nonparametric import (
     welch_frf,
 )
 from gbpipe.sysid.subspace_model import SubspaceModel
+from gbpipe.sysid.uncertainty import FRFBounds, frf_bounds
 
 __all__ = ["pbsid", "moesp", "n4sid", "SubspaceModel", "InputRank", "input_hankel_rank",
            "welch_frf", "NonparametricFRF", "coherent_band", "CoherentBand",
-           "equivalent_averages"]
+           "equivalent_averages", "frf_bounds", "FRFBounds"]

@@ -23,6 +23,8 @@ __all__ = [
     "check_window",
     "check_dt",
     "check_past_future",
+    "is_multi",
+    "channel_counts",
     "prepare",
 ]
 
@@ -33,14 +35,15 @@ class PreparedData:
 
     Attributes
     ----------
-    z : ndarray, shape (m + l, N)
-        Scaled inputs (first ``m`` rows) and outputs (last ``l`` rows), one channel per row.
+    z : ndarray, shape (m + l, N), or list of them
+        Scaled inputs (first ``m`` rows) and outputs (last ``l`` rows), one channel per row;
+        a list (one array per record) for multi-experiment data.
     u_scale, y_scale : ndarray
         Root-mean-square value of each raw input / output channel (the scaling divisors).
     n_samples, n_inputs, n_outputs : int
     """
 
-    z: np.ndarray
+    z: np.ndarray | list[np.ndarray]
     u_scale: np.ndarray
     y_scale: np.ndarray
     n_samples: int
@@ -73,6 +76,35 @@ def as_2d(x: object, name: str) -> np.ndarray:
             name, f"must have shape (samples,) or (samples, channels), got shape {arr.shape}"
         )
     return arr
+
+
+def is_multi(x: object) -> bool:
+    """Whether ``x`` holds several records: a list or tuple of numpy arrays.
+
+    Multi-experiment data are passed as ``u = [u_0, u_1, ...]``, ``y = [y_0, y_1, ...]``
+    (each ``u_i`` of shape (N_i,) or (N_i, m)); any other array-like is one record.
+    """
+    return isinstance(x, (list, tuple)) and len(x) > 0 and all(
+        isinstance(r, np.ndarray) for r in x)
+
+
+def _record_list(u: object, y: object) -> list[tuple[np.ndarray, np.ndarray]]:
+    """``(u_i, y_i)`` pairs as 2-D float arrays; one pair for single-record data."""
+    if not (is_multi(u) or is_multi(y)):
+        return [(as_2d(u, "u"), as_2d(y, "y"))]
+    if not (is_multi(u) and is_multi(y)) or len(u) != len(y):  # type: ignore[arg-type]
+        raise DataError(
+            "u, y", "multi-experiment data need u and y as lists of numpy arrays of the same "
+            "number of records (u = [u_0, u_1, ...], y = [y_0, y_1, ...])"
+        )
+    return [(as_2d(ui, f"u[{i}]"), as_2d(yi, f"y[{i}]"))
+            for i, (ui, yi) in enumerate(zip(u, y, strict=True))]  # type: ignore[arg-type]
+
+
+def channel_counts(u: object, y: object) -> tuple[int, int]:
+    """Number of input and output channels ``(m, l)`` of one record or a list of records."""
+    ua, ya = _record_list(u, y)[0]
+    return ua.shape[1], ya.shape[1]
 
 
 def check_finite(arr: np.ndarray, name: str) -> None:
@@ -153,47 +185,59 @@ def prepare(
 
     Parameters
     ----------
-    u, y : array_like, shape (N,) or (N, channels)
-        Input and output records, same number of samples, finite.
+    u, y : array_like, shape (N,) or (N, channels), or lists of them
+        Input and output records, same number of samples, finite. Lists of numpy arrays
+        (:func:`is_multi`) are several records (experiments) of the same channels; they
+        share one channel scaling (the RMS value over all records).
     min_samples : int
-        Smallest record length the chosen windows can use.
+        Smallest record length the chosen windows can use (for every record).
     window_desc : str
         Text naming the windows, used in the "record too short" message.
 
     Returns
     -------
     PreparedData
+        ``z`` is a list when ``u`` and ``y`` are lists.
 
     Raises
     ------
     DataError
-        NaN/inf, mismatched lengths, too-short record or an all-zero channel.
+        NaN/inf, mismatched lengths or channels, too-short record or an all-zero channel.
     """
-    ua = as_2d(u, "u")
-    ya = as_2d(y, "y")
-    if ua.shape[0] != ya.shape[0]:
-        raise DataError(
-            "u, y",
-            f"must have the same number of samples (axis 0); got u: {ua.shape[0]}, "
-            f"y: {ya.shape[0]}. Pass records of equal length (time along axis 0)",
-        )
-    n = ua.shape[0]
-    if n < min_samples:
-        raise DataError(
-            "u, y",
-            f"record too short: {n} samples, but {window_desc} need at least {min_samples}; "
-            "use a longer record or smaller windows",
-        )
+    pairs = _record_list(u, y)
+    multi = is_multi(u)
+    m, l_ = pairs[0][0].shape[1], pairs[0][1].shape[1]
+    sums = [np.zeros(m), np.zeros(l_)]
+    for i, (ua, ya) in enumerate(pairs):
+        where = f" (record {i})" if multi else ""
+        if (ua.shape[1], ya.shape[1]) != (m, l_):
+            raise DataError(
+                f"u[{i}], y[{i}]", f"record {i} has {ua.shape[1]} inputs and {ya.shape[1]} "
+                f"outputs, record 0 has {m} and {l_}: every record needs the same channels"
+            )
+        if ua.shape[0] != ya.shape[0]:
+            raise DataError(
+                "u, y",
+                f"must have the same number of samples (axis 0){where}; got u: {ua.shape[0]}, "
+                f"y: {ya.shape[0]}. Pass records of equal length (time along axis 0)",
+            )
+        if ua.shape[0] < min_samples:
+            raise DataError(
+                "u, y",
+                f"record too short{where}: {ua.shape[0]} samples, but {window_desc} need at "
+                f"least {min_samples}; use a longer record or smaller windows",
+            )
+        # A NaN or inf sample makes its channel's sum of squares non-finite, so the
+        # sample-by-sample search of check_finite runs only then (a finite record is read
+        # once, not three times).
+        for k, (name, arr) in enumerate((("u", ua), ("y", ya))):
+            ss = np.einsum("ij,ij->j", arr, arr)
+            if not np.all(np.isfinite(ss)):
+                check_finite(arr, f"{name}[{i}]" if multi else name)
+            sums[k] += ss
+    n = sum(ua.shape[0] for ua, _ in pairs)
     # Channel scaling: each channel divided by its RMS value, so that badly scaled units
-    # (e.g. N*m against rad/s) do not steer the SVD and the rank decisions. A NaN or inf
-    # sample makes its channel's sum of squares non-finite, so the sample-by-sample search
-    # of check_finite runs only then (a finite record is read once, not three times).
-    sums = []
-    for name, arr in (("u", ua), ("y", ya)):
-        ss = np.einsum("ij,ij->j", arr, arr)
-        if not np.all(np.isfinite(ss)):
-            check_finite(arr, name)
-        sums.append(ss)
+    # (e.g. N*m against rad/s) do not steer the SVD and the rank decisions.
     u_scale, y_scale = (np.sqrt(ss / n) for ss in sums)
     for name, sc in (("u", u_scale), ("y", y_scale)):
         zero = np.flatnonzero(sc == 0.0)
@@ -203,7 +247,10 @@ def prepare(
                 f"{name} channel {zero[0]} is identically zero; an identification needs "
                 "every channel to carry signal: drop that channel",
             )
-    z = np.empty((ua.shape[1] + ya.shape[1], n))
-    np.divide(ua.T, u_scale[:, None], out=z[: ua.shape[1]])
-    np.divide(ya.T, y_scale[:, None], out=z[ua.shape[1]:])
-    return PreparedData(z, u_scale, y_scale, n, ua.shape[1], ya.shape[1])
+    zs = []
+    for ua, ya in pairs:
+        z = np.empty((m + l_, ua.shape[0]))
+        np.divide(ua.T, u_scale[:, None], out=z[:m])
+        np.divide(ya.T, y_scale[:, None], out=z[m:])
+        zs.append(z)
+    return PreparedData(zs if multi else zs[0], u_scale, y_scale, n, m, l_)

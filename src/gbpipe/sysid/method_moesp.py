@@ -19,10 +19,12 @@ moesp = open_loop_method(
 
     Parameters
     ----------
-    u : array_like, shape (N,) or (N, m)
-        Input record (any unit). Not modified.
-    y : array_like, shape (N,) or (N, l)
-        Output record, same length. Not modified.
+    u : array_like, shape (N,) or (N, m), or list of arrays
+        Input record (any unit). Not modified. Several records (experiments) as a list of
+        numpy arrays ``[u_0, u_1, ...]``: each keeps its own initial state and no window
+        straddles two records.
+    y : array_like, shape (N,) or (N, l), or list of arrays
+        Output record(s), same lengths. Not modified.
     order : int or "auto"
         State dimension; ``"auto"`` picks it from the singular values. At most
         ``(horizon - 1) * l``.

@@ -52,10 +52,12 @@ def pbsid(
 
     Parameters
     ----------
-    u : array_like, shape (N,) or (N, m)
-        Input record (any unit; channels are scaled internally). Not modified.
-    y : array_like, shape (N,) or (N, l)
-        Output record, same length as ``u``. Not modified.
+    u : array_like, shape (N,) or (N, m), or list of arrays
+        Input record (any unit; channels are scaled internally). Not modified. Several
+        records (experiments) as a list of numpy arrays ``[u_0, u_1, ...]``: each keeps its
+        own initial state and no window straddles two records.
+    y : array_like, shape (N,) or (N, l), or list of arrays
+        Output record(s), same lengths as ``u``. Not modified.
     order : int or "auto"
         State dimension ``n``; ``"auto"`` picks it from the singular values.
     past : int
@@ -100,8 +102,7 @@ def pbsid(
     if not np.isfinite(regularization) or regularization < 0:
         raise ConfigError("regularization", f"must be >= 0, got {regularization!r}")
     # Validate shapes first so the order bound below knows the number of outputs.
-    m0 = checks.as_2d(u, "u").shape[1]
-    l0 = checks.as_2d(y, "y").shape[1]
+    m0, l0 = checks.channel_counts(u, y)
     c0 = m0 + l0
     width = (p + 1) * c0
     n_fixed = checks.check_order(order, f * l0, f"future={f} block rows x {l0} outputs")
@@ -120,7 +121,7 @@ def pbsid(
     pe_rank, pe_cap = excitation_limit(
         gram, m, p + 1, n_fixed, feedthrough, f"past {p} + the current sample"
     )
-    r, n_win = window_r_factor(data.z, p + 1, cols, gram=gram)
+    r, n_win = window_r_factor(data.z, p + 1, cols, gram=gram, n_predicted=l_)
 
     # (1) VARX: y_t = sum_j Xi_j z[t-j] (+ D u_t) + e_t.
     k_reg = pc + (m if feedthrough else 0)

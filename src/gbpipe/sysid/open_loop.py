@@ -24,7 +24,7 @@ from collections.abc import Callable
 import numpy as np
 
 from gbpipe.sysid.checks import (
-    as_2d,
+    channel_counts,
     check_dt,
     check_order,
     check_past_future,
@@ -109,8 +109,7 @@ def identify_open_loop(
     p = f if past is None else check_window(past, "past")
     check_past_future(p, f, "horizon")
     dt = check_dt(dt)
-    m0 = as_2d(u, "u").shape[1]
-    l0 = as_2d(y, "y").shape[1]
+    m0, l0 = channel_counts(u, y)
     c0 = m0 + l0
     width = p * c0 + f * c0
     # Shift invariance needs Gamma_f without its last block row to keep rank n.
@@ -135,7 +134,7 @@ def identify_open_loop(
     pe_rank, pe_cap = excitation_limit(
         gram, m, p + f, n_fixed, feedthrough, f"past {p} + horizon {f}"
     )
-    r, n_win = window_r_factor(data.z, p + f, cols, gram=gram)
+    r, n_win = window_r_factor(data.z, p + f, cols, gram=gram, n_predicted=f * l_)
     fm, fl = f * m, f * l_
     i_yf = np.arange(fm + pc, fm + pc + fl)
 

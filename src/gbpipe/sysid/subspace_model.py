@@ -17,6 +17,9 @@ from gbpipe.sysid.checks import as_2d, check_finite
 
 __all__ = ["SubspaceModel", "from_scaled", "free_response"]
 
+# Segment lengths whose x0 solver a model keeps (a validation uses one or two).
+_X0_CACHE = 4
+
 
 def free_response(a: np.ndarray, c: np.ndarray, n_samples: int) -> np.ndarray:
     """Output of every unit initial state: ``out[k, :, i] = (C A^k)[:, i]``.
@@ -96,6 +99,35 @@ class SubspaceModel:
     def __post_init__(self) -> None:
         for name in ("A", "B", "C", "D", "K", "noise_cov", "singular_values"):
             object.__setattr__(self, name, _freeze(getattr(self, name)))
+        # Least-squares x0 solvers by segment length (a validation calls estimate_x0 on many
+        # segments of one length); not a field, so replace() starts a fresh cache.
+        object.__setattr__(self, "_x0_solvers", {})
+
+    def x0_solver(self, n_samples: int) -> tuple[int, np.ndarray, np.ndarray]:
+        """Free response over ``n_samples`` and its pseudo-inverse, cached by length.
+
+        Returns
+        -------
+        stop : int
+            Samples used: all, or the finite head of an unstable model's free response.
+        pinv : ndarray, shape (n, stop * l)
+            ``x0 = pinv @ (y - y_forced)[:stop].ravel()`` is the least-squares initial state.
+        free : ndarray, shape (n_samples, l, n)
+            :func:`free_response` of the model.
+        """
+        cache = self._x0_solvers
+        if n_samples not in cache:
+            free = free_response(self.A, self.C, n_samples)
+            ok = np.all(np.isfinite(free), axis=(1, 2))
+            # An unstable model's free response overflows; fit x0 on the finite head only.
+            stop = n_samples if ok.all() else int(np.argmin(ok))
+            if len(cache) >= _X0_CACHE:
+                cache.pop(next(iter(cache)))
+            phi = free[:stop].reshape(-1, self.order)
+            # The singular-value cut of np.linalg.lstsq(rcond=None), so both agree.
+            cut = np.finfo(float).eps * max(phi.shape)
+            cache[n_samples] = (stop, np.linalg.pinv(phi, rcond=cut), free)
+        return cache[n_samples]
 
     @property
     def n_inputs(self) -> int:
@@ -197,13 +229,57 @@ class SubspaceModel:
                 f"the model, got {ya.shape}"
             )
         resid = ya - dlsim(self.A, self.B, self.C, self.D, ua)
-        free = free_response(self.A, self.C, ua.shape[0])
-        ok = np.all(np.isfinite(free), axis=(1, 2))
-        # An unstable model's free response overflows; fit x0 on the finite head only.
-        stop = ua.shape[0] if ok.all() else int(np.argmin(ok))
-        phi = free[:stop].reshape(-1, self.order)
-        x0, *_ = np.linalg.lstsq(phi, resid[:stop].ravel(), rcond=None)
-        return x0
+        stop, pinv, _ = self.x0_solver(ua.shape[0])
+        return pinv @ resid[:stop].ravel()
+
+    def simulate_segments(self, u: object, y: object, segment: int
+                          ) -> tuple[np.ndarray, np.ndarray]:
+        """Simulation of ``u`` in segments, each from its least-squares initial state.
+
+        Equivalent to :meth:`estimate_x0` and :meth:`simulate` on every segment
+        ``[k segment, (k + 1) segment)`` (the last one shorter), but for a stable model the
+        record is simulated once and all full segments share one batched solve: segment
+        ``k``'s response from its own ``x0`` is the one-pass response plus the free response
+        of ``x0 - x[k segment]``.
+
+        Parameters
+        ----------
+        u, y : array_like
+            Input and output records, shapes (N,) or (N, channels).
+        segment : int
+            Segment length in samples (``>= order`` for a determined initial state).
+
+        Returns
+        -------
+        y_sim : ndarray, shape (N, l)
+        x0 : ndarray, shape (n_segments, n)
+            Initial state of each segment.
+        """
+        ua = self._check_u(u)
+        ya = as_2d(y, "y")
+        n_tot, n = ua.shape[0], self.order
+        starts = np.arange(0, n_tot, segment)
+        if not self.is_stable():  # one long simulation would overflow: segment by segment
+            x0 = np.array([self.estimate_x0(ua[a: a + segment], ya[a: a + segment])
+                           for a in starts])
+            y_sim = np.vstack([self.simulate(ua[a: a + segment], x)
+                               for a, x in zip(starts, x0, strict=True)])
+            return y_sim, x0
+        states = dlsim(self.A, self.B, np.eye(n), np.zeros((n, self.n_inputs)), ua)
+        y_one = states @ self.C.T + ua @ self.D.T
+        dev = ya - y_one
+        y_sim = y_one.copy()
+        x0 = states[starts].copy()
+        for length, group in ((segment, starts[starts + segment <= n_tot]),
+                              (n_tot - starts[-1], starts[starts + segment > n_tot])):
+            if group.size == 0:
+                continue
+            stop, pinv, free = self.x0_solver(length)
+            rows = group[:, None] + np.arange(length)[None, :]  # (segments, length)
+            dx = dev[rows[:, :stop]].reshape(group.size, -1) @ pinv.T  # (segments, n)
+            y_sim[rows] += np.einsum("tln,sn->stl", free, dx)
+            x0[np.searchsorted(starts, group)] += dx
+        return y_sim, x0
 
     def fit(self, u: object, y: object, x0: object = "estimate") -> np.ndarray:
         """Simulation fit in percent per output: ``100 (1 - ||y - y_sim|| / ||y - mean(y)||)``.

@@ -1,0 +1,160 @@
+"""Power spectral densities of the signals that drive the bench, for the design step.
+
+One-sided PSDs [unit² / Hz] on a frequency grid, from the configuration (``noise``) or from
+a set-point signal, as :func:`gbpipe.identify.design.predict` needs them:
+
+* a white sequence of rms ``s`` at the sample rate ``fs`` (the motor ripple's broadband
+  part, the sensor noise): ``s² / (fs / 2)`` up to ``fs / 2`` (Parseval);
+* a pulsating ripple line of amplitude ``a`` [N·m] at harmonic ``h`` of the electrical
+  frequency ``p · f_rot`` (``p`` pole pairs, ``f_rot`` the motor shaft rotation frequency):
+  power ``a² / 2`` spread evenly over the frequencies the line crosses in the test, widened
+  by the analysis resolution;
+* a speed differenced from an encoder angle quantised to ``q = 2 π / counts_per_rev``
+  [rad]: the quantisation error ``e`` is white, uniform, variance ``q² / 12`` (Widrow &
+  Kollár, *Quantization Noise*, 2008, ch. 4; valid when the angle moves many counts per
+  sample), and ``ω_k = (θ_k − θ_{k−1}) fs`` passes it through ``(1 − z⁻¹) fs``, whose gain
+  is ``|1 − e^{−j2πf/fs}|² fs² = 4 fs² sin²(π f / fs)``; with the one-sided PSD of ``e``,
+  ``2 (q² / 12) / fs``, the speed noise PSD is ``(2 q² / 3) fs sin²(π f / fs)``;
+* a set-point (step, ramp, designed multisine or PRBS): Welch's average periodogram
+  (:func:`scipy.signal.welch`), Hann segments of ``1 / resolution`` seconds overlapping by
+  3/4 (the squared Hann windows then sum to a constant, so a step anywhere in the record
+  weighs the same), interpolated to the grid.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+from scipy.signal import welch
+
+from gbpipe.errors import ConfigError
+
+__all__ = ["white_psd", "quantised_speed_psd", "line_psd", "ripple_psd", "sensor_psds",
+           "reference_psd"]
+
+
+def white_psd(rms: float, fs: float, f_hz: np.ndarray) -> np.ndarray:
+    """One-sided PSD ``rms² / (fs / 2)`` of white noise of ``rms`` at ``fs`` [Hz].
+
+    Zero above ``fs / 2`` (nothing of a sampled sequence lies there).
+    """
+    f = np.asarray(f_hz, dtype=float)
+    return np.where(f <= fs / 2, float(rms) ** 2 / (fs / 2), 0.0)
+
+
+def quantised_speed_psd(f_hz: np.ndarray, counts_per_rev: float, fs: float) -> np.ndarray:
+    """One-sided PSD [(rad/s)² / Hz] of a speed differenced from a quantised angle.
+
+    ``(2 q² / 3) fs sin²(π f / fs)`` with ``q = 2 π / counts_per_rev`` [rad] (module
+    docstring).
+    """
+    q = 2 * np.pi / float(counts_per_rev)
+    f = np.asarray(f_hz, dtype=float)
+    return np.where(f <= fs / 2, 2 * q ** 2 / 3 * fs * np.sin(np.pi * f / fs) ** 2, 0.0)
+
+
+def line_psd(f_hz: np.ndarray, f_lo: float, f_hi: float, amplitude: float,
+             resolution: float) -> np.ndarray:
+    """A sinusoid of ``amplitude`` whose frequency moves within ``[f_lo, f_hi]`` [Hz].
+
+    Its power ``amplitude² / 2`` spread evenly over ``[f_lo − res/2, f_hi + res/2]``.
+    """
+    lo, hi = f_lo - resolution / 2, f_hi + resolution / 2
+    f = np.asarray(f_hz, dtype=float)
+    return np.where((f >= lo) & (f <= hi), float(amplitude) ** 2 / 2 / (hi - lo), 0.0)
+
+
+def ripple_psd(ripple: Any, fs: float, f_hz: np.ndarray, rotation_hz: tuple[float, float],
+               resolution: float, field: str = "noise.motor_ripple") -> np.ndarray:
+    """PSD [(N·m)² / Hz] of one motor's torque ripple.
+
+    Parameters
+    ----------
+    ripple : float or mapping
+        ``noise.motor_ripple.<motor>``: a number (broadband rms [N·m] only) or a mapping
+        with ``broadband`` [N·m rms], ``pole_pairs`` and ``pulsating`` (list of
+        ``{harmonic, amplitude [N·m]}``; harmonics of the electrical frequency).
+    fs : float
+        Sample rate the ripple is white at [Hz] (``campaign.sample_rate``).
+    f_hz : ndarray
+        Grid [Hz].
+    rotation_hz : (float, float)
+        Lowest and highest motor shaft rotation frequency of the test [Hz].
+    resolution : float
+        Analysis resolution [Hz] a line is widened by.
+    field : str
+        Config path, for messages.
+    """
+    if isinstance(ripple, (int, float)):
+        return white_psd(float(ripple), fs, f_hz)
+    if not isinstance(ripple, Mapping) or "broadband" not in ripple:
+        raise ConfigError(field, f"must be a number or a mapping with 'broadband', got "
+                                 f"{ripple!r}; see config/README.md")
+    psd = white_psd(float(ripple["broadband"]), fs, f_hz)
+    pairs = float(ripple.get("pole_pairs", 1))
+    for k, line in enumerate(ripple.get("pulsating", ())):
+        try:
+            h, a = float(line["harmonic"]), float(line["amplitude"])
+        except (KeyError, TypeError) as exc:
+            raise ConfigError(f"{field}.pulsating[{k}]", "needs 'harmonic' and 'amplitude'"
+                              ) from exc
+        psd = psd + line_psd(f_hz, h * pairs * rotation_hz[0], h * pairs * rotation_hz[1],
+                             a, resolution)
+    return psd
+
+
+def sensor_psds(noise: Mapping[str, Any], kinds: Mapping[str, str], fs: float,
+                f_hz: np.ndarray) -> dict[str, np.ndarray]:
+    """Measurement noise PSD of each recorded signal.
+
+    Parameters
+    ----------
+    noise : mapping
+        ``noise``: ``sensor`` (rms per kind, e.g. ``speed`` [rad/s], ``torque`` [N·m],
+        white at ``fs``) and optionally ``encoder.counts_per_rev`` (speeds differenced
+        from a quantised angle, added to the speed signals).
+    kinds : mapping
+        Signal name -> sensor kind (``"speed"`` or ``"torque"``).
+    fs : float
+        Sample rate of the records [Hz].
+    f_hz : ndarray
+        Grid [Hz].
+
+    Returns
+    -------
+    dict
+        Signal name -> PSD [unit² / Hz].
+    """
+    sensor = noise.get("sensor", {})
+    encoder = noise.get("encoder") or {}
+    out = {}
+    for name, kind in kinds.items():
+        psd = white_psd(float(sensor.get(kind, 0.0)), fs, f_hz)
+        if kind == "speed" and encoder.get("counts_per_rev"):
+            psd = psd + quantised_speed_psd(f_hz, float(encoder["counts_per_rev"]), fs)
+        out[name] = psd
+    return out
+
+
+def reference_psd(x: np.ndarray, fs: float, f_hz: np.ndarray,
+                  resolution: float = 1.0) -> np.ndarray:
+    """One-sided PSD of a set-point signal [unit² / Hz] on the grid (module docstring).
+
+    Parameters
+    ----------
+    x : ndarray
+        The set-point samples (its mean is removed per segment).
+    fs : float
+        Sample rate [Hz].
+    f_hz : ndarray
+        Grid [Hz].
+    resolution : float
+        Segment length ``1 / resolution`` seconds (at most the record).
+    """
+    x = np.asarray(x, dtype=float)
+    nper = min(x.size, int(round(fs / resolution)))
+    f, p = welch(x, fs=fs, window="hann", nperseg=nper, noverlap=3 * nper // 4,
+                 detrend="constant", scaling="density")
+    return np.interp(np.asarray(f_hz, dtype=float), f, p, right=0.0)
