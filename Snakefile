@@ -6,6 +6,7 @@ from snakemake.utils import min_version
 
 import gbpipe.config
 import gbpipe.io
+from gbpipe.simulate.profiles import TESTS
 
 # workflow/lib holds the workflow's own helpers (not part of the gbpipe library)
 sys.path.insert(0, f"{workflow.basedir}/workflow/lib")
@@ -26,7 +27,8 @@ SRC = "src"
 
 
 wildcard_constraints:
-    test="speed_up|speed_down|torque_up|torque_down",
+    # every ramp test (figures 7-10 show all four) and the designed-excitation tests
+    test="|".join([*TESTS, *(d["name"] for d in config["campaign"]["designed"])]),
     profile="square|tapered",
 
 
@@ -35,8 +37,8 @@ include: "workflow/rules/kinematics.smk"
 include: "workflow/rules/model.smk"
 include: "workflow/rules/simulate.smk"
 include: "workflow/rules/harmonics.smk"
-include: "workflow/rules/identify.smk"
 include: "workflow/rules/design.smk"
+include: "workflow/rules/identify.smk"
 include: "workflow/rules/removal.smk"
 include: "workflow/rules/measured.smk"
 

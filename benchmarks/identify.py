@@ -8,7 +8,7 @@
    process: conditioning each (record, version, signal) once
    (:class:`gbpipe.identify.ConditionedRecord`) against conditioning every pairing x
    version (:func:`gbpipe.identify.condition` per pairing); the one-pass segment fit
-   (:func:`gbpipe.identify.fitting.segment_simulation`) against ``estimate_x0`` +
+   (:meth:`gbpipe.sysid.SubspaceModel.simulate_segments`) against ``estimate_x0`` +
    ``simulate`` per segment, with the largest difference of the fits [%].
 
 Inputs: a complete run's ``results/`` (records, ``tsa/tests``, ``removal/tests``,
@@ -38,7 +38,6 @@ from gbpipe.identify import (
     identify_record,
     version_signals,
 )
-from gbpipe.identify.fitting import segment_simulation
 from gbpipe.lti import fit_percent
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -131,7 +130,7 @@ def main() -> None:
         m = fit_model(a.method, u, y, 1.0 / s["sample_rate"], s)
         uv, yv = c_val(p["inputs"], v), c_val(p["outputs"], v)
         dt_old, y_old = _cpu(_per_segment, m, uv, yv, seg)
-        dt_new, y_new = _cpu(segment_simulation, m, uv, yv, seg)
+        dt_new, (y_new, _) = _cpu(m.simulate_segments, uv, yv, seg)
         t_old, t_new = t_old + dt_old, t_new + dt_new
         if np.max(np.abs(np.linalg.eigvals(m.A))) ** seg > 1e8:
             wild += 1

@@ -277,6 +277,10 @@ CASES: list[tuple[str, str, dict, str]] = [
      "campaign.designed[0].period"),
     ("designed_beyond_torque_limit", "designed", _designed({**_MS, "rms": 20000.0}),
      "campaign.designed[0].rms"),
+    ("bounds_groups_too_many", "designed", {"identify": {"bounds": {"groups": 400}}},
+     "identify.bounds.groups"),
+    ("bounds_groups_two", "designed", {"identify": {"bounds": {"groups": 2}}},
+     "identify.bounds.groups"),
     ("identify_unknown_test", "designed", {"identify": {"tests": ["speed_up", "ms_torqe"]}},
      "identify.tests[1]"),
     # closed-loop stability

@@ -15,7 +15,6 @@ import pytest
 import xarray as xr
 
 from gbpipe.identify import ConditionedRecord, condition, fit_model, frf_error_db
-from gbpipe.identify.fitting import segment_simulation
 from gbpipe.lti import dlsim
 from gbpipe.sysid import SubspaceModel
 
@@ -87,6 +86,7 @@ def _model(rho: float, seed: int = 0) -> SubspaceModel:
 
 @pytest.mark.parametrize("rho", [0.98, 1.0, 1.0005, 1.01])
 def test_segment_simulation_is_the_per_segment_least_squares_fit(rho):
+    # the validation fit's one-pass simulation (SubspaceModel.simulate_segments)
     # reference: each segment simulated from its own estimate_x0 (lstsq on the free
     # responses), a last segment shorter than the order copied from y
     m = _model(rho)
@@ -102,10 +102,10 @@ def test_segment_simulation_is_the_per_segment_least_squares_fit(rho):
             ref[a:b] = y[a:b]
         else:
             ref[a:b] = m.simulate(u[a:b], m.estimate_x0(u[a:b], y[a:b]))
-    got = segment_simulation(m, u, y, seg)
+    got = m.simulate_segments(u, y, seg)[0]
     np.testing.assert_allclose(got, ref, rtol=0, atol=1e-9 * np.abs(y).max())
-    got = segment_simulation(m, u[:-1], y[:-1], seg)  # last segment 2 samples < order
-    np.testing.assert_array_equal(got[-2:], y[-3:-1])
+    got = m.simulate_segments(u[:-1], y[:-1], seg)[0]  # last segment 2 samples < order
+    np.testing.assert_allclose(got[-2:], y[-3:-1], rtol=0, atol=1e-12 * np.abs(y).max())
 
 
 def test_conditioned_record_is_condition_of_the_stacked_signals():

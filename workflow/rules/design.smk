@@ -4,25 +4,26 @@
 
 
 def design_tests():
-    """Tests the design step predicts: the identified ramp tests and the designed ones."""
-    return (list(config["identify"]["tests"])
-            + [d["name"] for d in config["campaign"]["designed"]])
+    """Tests the design step predicts: the identified tests and every designed test."""
+    names = list(config["identify"]["tests"])
+    return names + [d["name"] for d in config["campaign"]["designed"] if d["name"] not in names]
+
+
+def _design_files():
+    return expand(f"{RESULTS}/design/{{test}}_{{profile}}.nc", test=design_tests(),
+                  profile=config["identify"]["profiles"])
 
 
 def design_targets():
-    """Every design file and the design figure (not yet in `all_targets`)."""
+    """Every design file and the design figure (for `all_targets`)."""
     stem = f"{RESULTS}/figures/fig_design"
-    return (expand(f"{RESULTS}/design/{{test}}_{{profile}}.nc", test=design_tests(),
-                   profile=config["identify"]["profiles"])
-            + [f"{stem}.png", f"{stem}.pdf", f"{RESULTS}/report/fig_design.rst"])
+    return _design_files() + [f"{stem}.png", f"{stem}.pdf", f"{RESULTS}/report/fig_design.rst"]
 
 
 rule design:
     message:
-        "Predicted identifiable band of every pairing for {wildcards.test} "
-        "({wildcards.profile}), before identification"
-    wildcard_constraints:
-        test="|".join(design_tests()),
+        "Predicted identifiable band of every pairing for every test and profile, before "
+        "identification"
     input:
         code=code("design.py"),
     params:
@@ -31,12 +32,14 @@ rule design:
         cfg={**{k: config[k] for k in ("seed", "gearbox", "bench", "campaign", "noise")},
              "identify": {k: config["identify"][k] for k in (
                  "pairings", "frf", "sample_rate", "order", "max_order", "tolerance_db")}},
+        records=[(t, p) for t in design_tests() for p in config["identify"]["profiles"]],
     output:
-        nc=f"{RESULTS}/design/{{test}}_{{profile}}.nc",
+        # one job: the bench and the true models are built once for every record
+        nc=_design_files(),
     log:
-        f"{RESULTS}/logs/design/{{test}}_{{profile}}.log",
+        f"{RESULTS}/logs/design.log",
     benchmark:
-        f"{RESULTS}/benchmarks/design/{{test}}_{{profile}}.tsv"
+        f"{RESULTS}/benchmarks/design.tsv"
     script:
         "../scripts/design.py"
 

@@ -105,6 +105,8 @@ rule identification_table:
         "Table: match bandwidth, fit and modes of every variant x method x pairing x version"
     input:
         models=_id_jobs(),
+        # the predicted bands (design step), written before identification ran
+        designs=rules.design.output.nc,
         code=code("identification_table.py"),
     output:
         table=f"{RESULTS}/tables/identification.csv",

@@ -1,17 +1,11 @@
 # the test records' config slice (also that of simulate_random, removal.smk)
 SIMULATE_CFG = {k: config[k] for k in ("seed", "gearbox", "bench", "campaign", "noise",
                                        "excitation", "tachometer")}
-# ramp tests and the designed tests of campaign.designed (gbpipe.simulate.test_names)
-SIMULATED_TESTS = ["speed_up", "speed_down", "torque_up", "torque_down"] + [
-    d["name"] for d in config["campaign"]["designed"]]
 
 
 rule simulate:
     message:
         "Closed-loop test {wildcards.test} ({wildcards.profile} steps), clean and measured-like"
-    wildcard_constraints:
-        # over the global constraint (ramp tests only): designed tests are simulated here
-        test="|".join(SIMULATED_TESTS),
     input:
         code=code("simulate.py"),
     params:

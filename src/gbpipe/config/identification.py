@@ -132,6 +132,14 @@ def _check_windows(cfg: Mapping[str, Any]) -> None:
                               f"channels need {need} samples for {method}, but the {test} "
                               f"({profile}) record has {have} at {idc['sample_rate']:g} Hz; "
                               "shorten the windows or lengthen campaign.hold")
+    groups = int(idc["bounds"]["groups"])
+    for method in (m for m in idc["bounds"]["methods"] if m in idc["methods"] and groups):
+        need = min_samples(method, past, fut, channels)
+        if have // groups < need:
+            raise ConfigError("identify.bounds.groups", f"{groups} groups of the {test} "
+                              f"({profile}) record hold {have // groups} samples each, but "
+                              f"{method} needs {need}; use at most {max(have // need, 0)} "
+                              "groups (0: no bounds)")
     shortest = min(test_duration(cfg["campaign"], base_test(cfg, t), p) for t, p in tests)
     if idc["fit_segment"] > shortest:
         raise ConfigError("identify.fit_segment", f"{idc['fit_segment']:g} s is longer than "

@@ -46,6 +46,12 @@ _ARRAYS: tuple[tuple[str, str, tuple[str, ...], str, str, str | None], ...] = (
     ("frf_identified_real", "frf_re", _FRF, _FRF_UNITS, "identified FRF, real part", None),
     ("frf_identified_imag", "frf_im", _FRF, _FRF_UNITS, "identified FRF, imaginary part",
      None),
+    ("frf_identified_lower_db", "frf_lo", _FRF, "dB",
+     "lower bound of the identified FRF magnitude (20 log10 |G|; jackknife over record "
+     "groups, see the bounds_confidence attribute)", None),
+    ("frf_identified_upper_db", "frf_hi", _FRF, "dB",
+     "upper bound of the identified FRF magnitude (20 log10 |G|; jackknife over record "
+     "groups, see the bounds_confidence attribute)", None),
     ("frf_reference_real", "ref_re", _FRF, _FRF_UNITS,
      "reference FRF (see the reference attribute), real part", None),
     ("frf_reference_imag", "ref_im", _FRF, _FRF_UNITS,
@@ -154,8 +160,9 @@ def models_dataset(results: Sequence[Mapping[str, Any]], dt: float, method: str,
     arr = {k: np.full(shape, np.nan) for k, shape in {
         "A": (nm, nx, nx), "B": (nm, nx, nu), "C": (nm, ny, nx), "D": (nm, ny, nu),
         "K": (nm, nx, ny), "noise_cov": (nm, ny, ny), "sv": (nm, nsv),
-        **dict.fromkeys(("frf_re", "frf_im", "ref_re", "ref_im", "ref_lo", "ref_hi", "coh",
-                        "err"), (nm, nf, ny, nu)), "bw": (nm,), "band": (nm,), "assess": (nm, nf),
+        **dict.fromkeys(("frf_re", "frf_im", "frf_lo", "frf_hi", "ref_re", "ref_im", "ref_lo",
+                         "ref_hi", "coh", "err"), (nm, nf, ny, nu)),
+        "bw": (nm,), "band": (nm,), "assess": (nm, nf),
         "ebw": (nm, ny, nu), "fit": (nm, ny), "mt": (nm, nmode), "zt": (nm, nmode),
         "mm": (nm, nmode), "mi": (nm, nmid), "zi": (nm, nmid)}.items()}
     order = np.zeros(nm, dtype=np.int32)
@@ -174,6 +181,7 @@ def models_dataset(results: Sequence[Mapping[str, Any]], dt: float, method: str,
         for key, val in (("A", m.A), ("B", m.B), ("C", m.C), ("D", m.D), ("K", m.K),
                          ("noise_cov", m.noise_cov), ("sv", m.singular_values),
                          ("frf_re", r["g_id"].real), ("frf_im", r["g_id"].imag),
+                         ("frf_lo", r["g_lower_db"]), ("frf_hi", r["g_upper_db"]),
                          ("err", r["err"]), ("ebw", r["element_bw"]), ("fit", r["fit"]),
                          ("mm", r["modes_matched"]), ("mi", r["modes_id"]),
                          ("zi", r["zeta_id"])):
@@ -242,7 +250,10 @@ def models_dataset(results: Sequence[Mapping[str, Any]], dt: float, method: str,
                     mode_tolerance=MODE_TOLERANCE, past=int(s["past"]),
                     future=int(s["future"]), order_setting=str(s["order"]),
                     max_order=int(s["max_order"]),
-                    record_sample_rate=float(record.attrs["sample_rate"]))
+                    record_sample_rate=float(record.attrs["sample_rate"]),
+                    bounds_confidence=float(s["bounds"]["confidence"]),
+                    bounds_groups=int(s["bounds"]["groups"]),
+                    bounds_methods=",".join(s["bounds"]["methods"]))
     return ds
 
 

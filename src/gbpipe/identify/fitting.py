@@ -9,18 +9,17 @@ on the validation record with :func:`gbpipe.lti.fit_percent`.
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import replace
 from typing import Any
 
 import numpy as np
-from scipy import fft
 
 from gbpipe import sysid
 from gbpipe.lti import fit_percent
 
-__all__ = ["METHODS", "fit_model", "reflect_out_of_band", "validation_fit",
-           "segment_simulation", "free_responses"]
+__all__ = ["METHODS", "fit_model", "fit_with_bounds", "method_arguments",
+           "reflect_out_of_band", "validation_fit"]
 
 #: Identification methods, by the name of their :mod:`gbpipe.sysid` function.
 METHODS = ("pbsid", "moesp", "n4sid")
@@ -55,16 +54,59 @@ def fit_model(method: str, u: np.ndarray, y: np.ndarray, dt: float,
     ValueError
         Unknown method (and the errors of :mod:`gbpipe.sysid`).
     """
+    fn, kwargs = method_arguments(method, dt, s)
+    m = fn(u, y, **kwargs)
+    f_pass = float(s["lowpass"]) * 0.5 / dt
+    return reflect_out_of_band(m, f_pass) if s["reflect_out_of_band"] else m
+
+
+def method_arguments(method: str, dt: float, s: Mapping[str, Any]
+                     ) -> tuple[Callable[..., sysid.SubspaceModel], dict[str, Any]]:
+    """The :mod:`gbpipe.sysid` function of ``method`` and its keyword arguments from the
+    ``identify`` section (order, windows, sample interval): one place for both the fit and
+    its confidence bounds.
+
+    Raises
+    ------
+    ValueError
+        Unknown method.
+    """
     order, max_order = s["order"], s["max_order"]
     past, fut = int(s["past"]), int(s["future"])
     if method == "pbsid":
-        m = sysid.pbsid(u, y, order, past, fut, dt=dt, max_order=max_order)
-    elif method in ("moesp", "n4sid"):
-        m = getattr(sysid, method)(u, y, order, fut, dt, past=past, max_order=max_order)
-    else:
-        raise ValueError(f"unknown method {method!r}; use {', '.join(METHODS)}")
+        return sysid.pbsid, dict(order=order, past=past, future=fut, dt=dt,
+                                 max_order=max_order)
+    if method in ("moesp", "n4sid"):
+        return getattr(sysid, method), dict(order=order, horizon=fut, dt=dt, past=past,
+                                            max_order=max_order)
+    raise ValueError(f"unknown method {method!r}; use {', '.join(METHODS)}")
+
+
+def fit_with_bounds(method: str, u: np.ndarray, y: np.ndarray, dt: float,
+                    s: Mapping[str, Any], freq: np.ndarray
+                    ) -> tuple[sysid.SubspaceModel, np.ndarray, np.ndarray]:
+    """:func:`fit_model` and the confidence bounds of its FRF magnitude [dB].
+
+    The bounds are the delete-one-group jackknife of :func:`gbpipe.sysid.frf_bounds`
+    (``identify.bounds.groups`` contiguous groups of the record, Student t, two-sided
+    ``identify.bounds.confidence``). They measure the estimate's scatter only: a bias of
+    the identification (closed-loop data for MOESP/N4SID, a finite past horizon) is not in
+    them (docs/identify.md, "Confidence bounds"). The out-of-band reflection of
+    :func:`reflect_out_of_band` is an all-pass change: the magnitude bounds hold for the
+    returned model.
+
+    Returns
+    -------
+    model : SubspaceModel
+    lower_db, upper_db : ndarray, shape (len(freq), p, m)
+        Bounds of ``20 log10 |G|`` [dB].
+    """
+    fn, kwargs = method_arguments(method, dt, s)
+    b = sysid.frf_bounds(fn, u, y, freq, n_groups=int(s["bounds"]["groups"]),
+                         confidence=float(s["bounds"]["confidence"]), **kwargs)
     f_pass = float(s["lowpass"]) * 0.5 / dt
-    return reflect_out_of_band(m, f_pass) if s["reflect_out_of_band"] else m
+    m = reflect_out_of_band(b.model, f_pass) if s["reflect_out_of_band"] else b.model
+    return m, b.mag_db_lower, b.mag_db_upper
 
 
 def reflect_out_of_band(model: sysid.SubspaceModel, f_pass: float) -> sysid.SubspaceModel:
@@ -106,7 +148,7 @@ def validation_fit(model: sysid.SubspaceModel, u: np.ndarray, y: np.ndarray,
     dynamics. The result is that of
     :meth:`~gbpipe.sysid.SubspaceModel.estimate_x0` and
     :meth:`~gbpipe.sysid.SubspaceModel.simulate` per segment, computed in one pass
-    (:func:`segment_simulation`).
+    (:meth:`~gbpipe.sysid.SubspaceModel.simulate_segments`).
 
     Returns
     -------
@@ -117,97 +159,8 @@ def validation_fit(model: sysid.SubspaceModel, u: np.ndarray, y: np.ndarray,
     segment = max(2 * model.order, min(segment, len(u)))
     with np.errstate(all="ignore"):
         try:
-            y_sim = segment_simulation(model, u, y, segment)
+            y_sim, _ = model.simulate_segments(u, y, segment)
         except (ValueError, np.linalg.LinAlgError):
             return np.full(y.shape[1], np.nan)
         fit = fit_percent(y, y_sim)
     return np.where(np.isfinite(fit), fit, np.nan)
-
-
-def segment_simulation(model: sysid.SubspaceModel, u: np.ndarray, y: np.ndarray,
-                       segment: int) -> np.ndarray:
-    """Simulation of ``u`` restarted every ``segment`` samples from the least-squares state.
-
-    Per segment, the output from the least-squares initial state is ``y0 + P (y - y0)``:
-    ``y0`` the response from zero state and ``P`` the orthogonal projection onto the span
-    of the free responses ``C A^k`` (what :func:`numpy.linalg.lstsq` fits in
-    :meth:`~gbpipe.sysid.SubspaceModel.estimate_x0`). The free responses also give the
-    Markov parameters ``D, C B, C A B, ...``, so the zero-state responses of all segments
-    are one batched FFT convolution (:mod:`scipy.fft`), and every segment
-    of the same length shares one projection (one SVD): no simulation per segment. Both
-    are exact up to rounding relative to the largest free response, as the least-squares
-    fit per segment is.
-
-    Parameters
-    ----------
-    model : gbpipe.sysid.SubspaceModel
-    u, y : ndarray, shape (n, m) and (n, p)
-        Validation input and output [model units].
-    segment : int
-        Segment length [samples]; a last segment shorter than the model order is copied
-        from ``y`` (too short to estimate a state).
-
-    Returns
-    -------
-    ndarray, shape (n, p)
-        Joined segment simulations; non-finite where the model's response overflows.
-    """
-    if model.order == 0:  # no state to estimate
-        return model.simulate(u)
-    free = free_responses(model.A, model.C, segment)
-    markov = np.concatenate([model.D[None], free[:-1] @ model.B])  # (segment, p, m)
-    y_sim = np.empty_like(y)
-    for length, starts in _segments(len(u), segment).items():
-        if length < model.order:  # too short to estimate a state: keep the record
-            y_sim[starts[0]:] = y[starts[0]:]
-            continue
-        idx = np.asarray(starts)[None, :] + np.arange(length)[:, None]  # (length, segs)
-        u_seg, y_seg = u[idx], y[idx]
-        # zero-state responses: the matrix-valued convolution with the Markov parameters,
-        # a product per frequency of the zero-padded transforms (no wrap-around)
-        nfft = fft.next_fast_len(2 * length, real=True)
-        y0 = fft.irfft(np.einsum("fsm,fpm->fsp", fft.rfft(u_seg, nfft, axis=0),
-                                 fft.rfft(markov[:length], nfft, axis=0)), nfft,
-                       axis=0)[:length]
-        q = _free_basis(free[:length])
-        # residuals of all segments of this length as columns, projected at once
-        r = (y_seg - y0).transpose(0, 2, 1).reshape(-1, len(starts))
-        y_sim[idx] = y0 + (q @ (q.T @ r)).reshape(length, -1, len(starts)).transpose(0, 2, 1)
-    return y_sim
-
-
-def free_responses(a: np.ndarray, c: np.ndarray, n_samples: int) -> np.ndarray:
-    """Free responses ``out[k] = C A^k`` for ``k < n_samples``, shape (n_samples, p, n).
-
-    By doubling: ``out[k:2k] = out[:k] A^k`` with ``A^k`` squared each step, so about
-    ``log2(n_samples)`` batched products instead of one simulation per output
-    (:func:`gbpipe.sysid.subspace_model.free_response`, which it matches to rounding). An
-    unstable model's responses overflow to inf, as a simulation's would.
-    """
-    out = np.empty((n_samples, c.shape[0], a.shape[0]))
-    out[0] = c
-    k, a_k = 1, a
-    with np.errstate(over="ignore", invalid="ignore"):
-        while k < n_samples:
-            step = min(k, n_samples - k)
-            out[k:k + step] = out[:step] @ a_k
-            k, a_k = k + step, a_k @ a_k
-    return out
-
-
-def _segments(n: int, segment: int) -> dict[int, list[int]]:
-    # start samples of the segments of range(n), grouped by length (the last may be shorter)
-    out: dict[int, list[int]] = {}
-    for s in range(0, n, segment):
-        out.setdefault(min(segment, n - s), []).append(s)
-    return out
-def _free_basis(free: np.ndarray) -> np.ndarray:
-    # orthonormal basis of the free responses (shape (L, p, n) -> (L p, rank)), with the
-    # rank cut of numpy.linalg.lstsq (rcond = eps max(rows, cols)); an overflowing free
-    # response gives a non-finite basis, hence a non-finite simulation (a failed fit)
-    phi = free.reshape(-1, free.shape[-1])
-    if not np.all(np.isfinite(phi)):
-        return np.full((phi.shape[0], 1), np.nan)
-    uu, sv, _ = np.linalg.svd(phi, full_matrices=False)
-    keep = sv > np.finfo(float).eps * max(phi.shape) * sv[0]
-    return uu[:, keep]

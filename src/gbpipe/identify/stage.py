@@ -19,7 +19,7 @@ import xarray as xr
 
 from gbpipe.errors import StageError
 from gbpipe.identify.dataset import models_dataset
-from gbpipe.identify.fitting import METHODS, fit_model, validation_fit
+from gbpipe.identify.fitting import METHODS, fit_model, fit_with_bounds, validation_fit
 from gbpipe.identify.metrics import identified_modes, match_modes
 from gbpipe.identify.prepare import ConditionedRecord
 from gbpipe.identify.reference import (
@@ -41,7 +41,11 @@ def _fit_row(res: dict[str, Any], method: str, data: tuple[np.ndarray, ...], dt:
     # fit one pairing x version, score it against its reference; fills `res` in place
     u, y, uv, yv = data
     ref: Reference = res["ref"]
-    m = fit_model(method, u, y, dt, s)
+    if s["bounds"]["groups"] and method in s["bounds"]["methods"]:
+        m, lower_db, upper_db = fit_with_bounds(method, u, y, dt, s, ref.frequency)
+    else:  # no bounds for this method (identify.bounds)
+        m = fit_model(method, u, y, dt, s)
+        lower_db = upper_db = np.full((ref.frequency.size, y.shape[1], u.shape[1]), np.nan)
     g_id = m.frf(ref.frequency)
     err = within_reference(g_id, ref, s["tolerance_db"])
     fit = validation_fit(m, uv, yv, int(round(s["fit_segment"] / dt)))
@@ -50,7 +54,7 @@ def _fit_row(res: dict[str, Any], method: str, data: tuple[np.ndarray, ...], dt:
     # where the reference cannot judge (an incoherent estimate) the error is NaN: those
     # frequencies are skipped, they do not count as a miss
     f = ref.frequency
-    res.update(model=m, g_id=g_id, err=err, fit=fit,
+    res.update(model=m, g_id=g_id, g_lower_db=lower_db, g_upper_db=upper_db, err=err, fit=fit,
                bandwidth=reference_bandwidth(f, err, ref, tol),
                element_bw=np.array([[reference_bandwidth(f, err[:, o, i], ref, tol)
                                      for i in range(err.shape[2])]

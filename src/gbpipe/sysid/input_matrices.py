@@ -1,20 +1,27 @@
 """``B`` and ``D`` of a state-space model whose ``A`` and ``C`` are known.
 
-Two estimators, used by the open-loop methods (:mod:`gbpipe.sysid.open_loop`):
+:func:`bd_least_squares`, used by the open-loop methods (:mod:`gbpipe.sysid.open_loop`):
+linear least squares over the whole record. With ``A, C`` fixed,
+``y[t] = C A^t x0 + sum_k C A^(t-1-k) B u[k] + D u[t]`` is linear in ``(B, D, x0)``; the
+regressor of ``B[:, j]`` on output ``r`` is the state of the transposed system
+``s+ = A' s + C[r]' u_j``. This is the output-error optimum for the given ``A, C`` and is
+well posed for any horizon. The record is processed in pieces and only the Gram matrix of
+the regressors is kept, so the memory is that of one piece, not ``N x (n m + l m + n)``;
+the Gram matrix comes from block products without the per-sample regressors
+(:class:`gbpipe.sysid.bd_regressors.BDRegressors`; the free response, the ``x0``
+regressors, is lifted like the others, so a slowly decaying one costs nothing extra); only
+a tail shorter than ``_MIN_BLOCKS`` blocks is simulated sample by sample.
 
-* :func:`bd_least_squares`: linear least squares over the whole record. With ``A, C`` fixed,
-  ``y[t] = C A^t x0 + sum_k C A^(t-1-k) B u[k] + D u[t]`` is linear in ``(B, D, x0)``; the
-  regressor of ``B[:, j]`` on output ``r`` is the state of the transposed system
-  ``s+ = A' s + C[r]' u_j``. This is the output-error optimum for the given ``A, C`` and is
-  well posed for any horizon. The record is processed in pieces and only the Gram matrix
-  of the regressors is kept, so the memory is that of one piece, not ``N x (n m + l m + n)``;
-  the Gram matrix comes from block products without the per-sample regressors
-  (:class:`gbpipe.sysid.bd_regressors.BDRegressors`; the free response, the ``x0``
-  regressors, is lifted like the others, so a slowly decaying one costs nothing extra); only
-  a tail shorter than ``_MIN_BLOCKS`` blocks is simulated sample by sample.
-* :func:`bd_gamma_perp`: ``Gamma_perp' Psi_u = Gamma_perp' H_f(B, D)`` on the small
-  regression coefficients, no simulation (for an unstable ``A``, whose regressors would
-  overflow).
+For an unstable ``A`` (whose regressors would overflow) the same least squares runs in
+predictor form with a gain ``K`` that makes ``A - K C`` stable:
+``x+ = (A - K C) x + (B - K D) u + K y``, so ``y - C x_y`` (``x_y`` driven by ``K y``) is
+linear in ``(B - K D, D, x0)`` with stable regressors. The textbook alternative,
+``Gamma_perp' Psi_u = Gamma_perp' H_f(B, D)`` on the ``f`` first Markov parameters, fails
+on closed-loop bench records: with a spurious empty-band pole at ``z = -4.4`` the
+``C A^k`` of ``H_f`` reach 1e30 and drive ``B`` to 1e-30 (a zero FRF); written with the
+SVD's ``Gamma_f`` instead, ``B`` stays finite but 50 Markov parameters leave the 5 Hz gain
+(a mode at ``z = 0.999``) 36-58 dB off, against 0.2-2.6 dB here
+(``tests/sysid/test_unstable_bd.py``).
 """
 
 from __future__ import annotations
@@ -22,10 +29,11 @@ from __future__ import annotations
 import numpy as np
 import scipy.linalg as sla
 
+from gbpipe.lti import dlsim
 from gbpipe.sysid.bd_regressors import BDRegressors
 from gbpipe.sysid.hankel import qr_append, records, triangular_cond
 
-__all__ = ["bd_least_squares", "bd_gamma_perp"]
+__all__ = ["bd_least_squares"]
 
 # Samples per chunk of regressors: a few MB of temporaries, and few enough chunks that the
 # per-call cost of the simulations stays small against the work per sample.
@@ -48,17 +56,6 @@ _NORMAL_MAX_COND = 1e3
 _ROUNDING_SHARE = 1e-2
 _RESIDUAL_OVER_FLOOR = 1e2
 
-
-
-def _observability(a: np.ndarray, c: np.ndarray, rows: int) -> np.ndarray:
-    """Extended observability matrix ``[C; C A; ...; C A^(rows-1)]``, shape (rows l, n)."""
-    l_, n = c.shape
-    out = np.empty((rows * l_, n))
-    ci = c
-    for i in range(rows):
-        out[i * l_: (i + 1) * l_] = ci
-        ci = ci @ a
-    return out
 
 
 def _explicit_rows(
@@ -129,6 +126,19 @@ def _record_gram(a: np.ndarray, c: np.ndarray, z: np.ndarray, m: int, feedthroug
     return np.triu(gram) + np.triu(gram, 1).T + sim.block_gram(feedthrough)
 
 
+def _predictor_record(a_p: np.ndarray, c: np.ndarray, gain: np.ndarray, z: np.ndarray,
+                      m: int) -> np.ndarray:
+    """Record ``[u; y - C x_y]`` of the predictor form, ``x_y+ = (A - K C) x_y + K y``.
+
+    ``y - C x_y`` is the output of ``x+ = (A - K C) x + (B - K D) u``, ``y = C x + D u``
+    (plus the predictor-filtered noise), so the least squares of :func:`bd_least_squares`
+    on it, with ``A - K C`` for ``A``, gives ``B - K D`` and ``D``.
+    """
+    l_ = c.shape[0]
+    y_pred = dlsim(a_p, gain, c, np.zeros((l_, l_)), z[m:].T)
+    return np.vstack([z[:m], z[m:] - y_pred.T])
+
+
 def _record_columns(i: int, n_records: int, n: int, width: int) -> np.ndarray:
     """Columns of record ``i``'s ``[x0, B, D, y]`` in the joint ``[x0_0 .. x0_(R-1), B, D, y]``.
 
@@ -146,6 +156,7 @@ def bd_least_squares(
     feedthrough: bool,
     chunk: int = _CHUNK_SAMPLES,
     method: str = "auto",
+    gain: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """``B, D`` (and a nuisance ``x0``) by least squares over the whole record, ``A, C`` fixed.
 
@@ -162,7 +173,8 @@ def bd_least_squares(
     Parameters
     ----------
     a : ndarray, shape (n, n)
-        State matrix (stable: the regressors are simulations of its transpose).
+        State matrix; stable unless ``gain`` is given (the regressors are simulations of
+        the transpose of ``a - gain @ c``).
     c : ndarray, shape (l, n)
     z : ndarray, shape (m + l, N), or list of them
         Channel-scaled inputs (first ``m`` rows) and outputs, one channel per row; a list
@@ -179,6 +191,10 @@ def bd_least_squares(
         column-scaled factor has ``cond <= 1e3`` (rounding ~ ``eps cond^2`` <= 2e-10) or
         when the noise moves the solution far more than their rounding does (noisy
         records: :func:`_normal_ok`), else QR.
+    gain : ndarray, shape (n, l), optional
+        Predictor gain ``K`` with ``A - K C`` stable, for an unstable ``A``: the least
+        squares then runs in predictor form (module docstring) and ``B = (B - K D) + K D``.
+        Default: output error (``K = 0``).
 
     Returns
     -------
@@ -193,6 +209,9 @@ def bd_least_squares(
     nb = n + n * m  # x0 and B columns
     k1 = nb + (l_ * m if feedthrough else 0)  # regressors of one record
     recs = records(z)
+    if gain is not None:
+        a = a - gain @ c
+        recs = [_predictor_record(a, c, gain, rec, m) for rec in recs]
     n_rec = len(recs)
     k = (n_rec - 1) * n + k1  # joint regressors: one x0 block per record
     gram = np.zeros((k + 1, k + 1))
@@ -230,53 +249,6 @@ def bd_least_squares(
     theta = theta[(n_rec - 1) * n:]  # drop all x0 but the last: [x0, B, D] of one record
     bmat = theta[n:nb].reshape(m, n).T
     dmat = theta[nb:].reshape(l_, m) if feedthrough else np.zeros((l_, m))
+    if gain is not None:
+        bmat = bmat + gain @ dmat
     return bmat, dmat
-
-
-def bd_gamma_perp(
-    a: np.ndarray,
-    c: np.ndarray,
-    gperp: np.ndarray,
-    psi_u: np.ndarray,
-    f: int,
-    m: int,
-    feedthrough: bool,
-) -> tuple[np.ndarray, np.ndarray]:
-    """``B, D`` from ``Gamma_perp' Psi_u = Gamma_perp' H_f(B, D)`` (no simulation).
-
-    Parameters
-    ----------
-    a, c : ndarray
-        Estimated ``A`` (n, n) and ``C`` (l, n).
-    gperp : ndarray, shape (f l, f l - n)
-        Orthogonal complement of the column space of ``Gamma_f``.
-    psi_u : ndarray, shape (f l, f m)
-        Regression coefficient of the future outputs on the future inputs.
-    f, m : int
-        Future window in samples, number of inputs.
-    feedthrough : bool
-        Estimate ``D``; otherwise ``D = 0``.
-
-    Returns
-    -------
-    B : ndarray, shape (n, m)
-    D : ndarray, shape (l, m)
-    """
-    l_, n = c.shape
-    fl = f * l_
-    obs = _observability(a, c, f)
-    rows_lhs, rows_rhs = [], []
-    for j in range(f):
-        lhs_d = np.zeros((fl, l_))
-        lhs_d[j * l_: (j + 1) * l_] = np.eye(l_)
-        lhs_b = np.zeros((fl, n))
-        lhs_b[(j + 1) * l_:] = obs[: (f - j - 1) * l_]
-        blk = [gperp.T @ lhs_b]
-        if feedthrough:
-            blk.insert(0, gperp.T @ lhs_d)
-        rows_lhs.append(np.hstack(blk))
-        rows_rhs.append(gperp.T @ psi_u[:, j * m: (j + 1) * m])
-    sol = np.linalg.lstsq(np.vstack(rows_lhs), np.vstack(rows_rhs), rcond=None)[0]
-    if feedthrough:
-        return sol[l_:], sol[:l_]
-    return sol, np.zeros((l_, m))

@@ -14,6 +14,8 @@ projections assume future inputs uncorrelated with the noise.
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 
 from gbpipe.errors import ConfigError
@@ -24,7 +26,7 @@ from gbpipe.sysid.kalman import stable_predictor_gain
 from gbpipe.sysid.order import check_order_rank, select_order
 from gbpipe.sysid.subspace_model import SubspaceModel, from_scaled
 
-__all__ = ["pbsid"]
+__all__ = ["pbsid", "pbsid_leave_one_out"]
 
 
 def pbsid(
@@ -94,6 +96,52 @@ def pbsid(
         The input is not persistently exciting for the order (:mod:`.excitation`): its
         block-Hankel matrix over the ``past + 1`` window lacks the rank the order needs.
     """
+    data, p, f, dt, n_fixed = _prepared(u, y, order, past, future, dt, regularization)
+    return _from_products(data, hankel_gram(data.z, p + 1), p, f, dt, n_fixed, feedthrough,
+                          regularization, max_order)
+
+
+def pbsid_leave_one_out(
+    u_groups: list[np.ndarray], y_groups: list[np.ndarray], order: int | str, past: int,
+    future: int | None = None, dt: float = 1.0, *, feedthrough: bool = False,
+    regularization: float = 0.0, max_order: int | None = None,
+) -> list[SubspaceModel]:
+    """PBSID on every leave-one-group-out subset of ``G`` groups, for a jackknife.
+
+    Fit ``k`` uses every group but ``k``, each as its own record (as
+    ``pbsid([u_j for j != k], [y_j for j != k], ...)``), but the Gram matrix of its data
+    windows is the total minus group ``k``'s, so the record is read once, not ``G`` times.
+    All fits share the channel scaling of the whole data (the RMS over all groups).
+
+    Parameters
+    ----------
+    u_groups, y_groups : list of ndarray
+        The groups, shapes (N_k,) or (N_k, m) and (N_k,) or (N_k, l); at least 2.
+    order, past, future, dt, feedthrough, regularization, max_order
+        As for :func:`pbsid`.
+
+    Returns
+    -------
+    list of SubspaceModel
+        Model ``k`` fitted without group ``k``.
+    """
+    data, p, f, dt, n_fixed = _prepared(list(u_groups), list(y_groups), order, past, future,
+                                        dt, regularization)
+    grams = [hankel_gram(z, p + 1) for z in data.z]
+    total = sum(grams)
+    out = []
+    for k in range(len(grams)):
+        rest = [z for j, z in enumerate(data.z) if j != k]
+        sub = replace(data, z=rest, n_samples=sum(z.shape[1] for z in rest))
+        out.append(_from_products(sub, total - grams[k], p, f, dt, n_fixed, feedthrough,
+                                  regularization, max_order))
+    return out
+
+
+def _prepared(u: object, y: object, order: int | str, past: int, future: int | None,
+              dt: float, regularization: float
+              ) -> tuple[checks.PreparedData, int, int, float, int | None]:
+    """Checked arguments and the prepared record of :func:`pbsid`."""
     p = checks.check_window(past, "past")
     f = p if future is None else checks.check_window(future, "future")
     # The predictor rows of Gamma_f K_p need p >= f VARX coefficients.
@@ -110,6 +158,13 @@ def pbsid(
         u, y, min_samples=p + width + 1,
         window_desc=f"past={p} with {c0} channels ({width} regressors)",
     )
+    return data, p, f, dt, n_fixed
+
+
+def _from_products(data: checks.PreparedData, gram: np.ndarray, p: int, f: int, dt: float,
+                   n_fixed: int | None, feedthrough: bool, regularization: float,
+                   max_order: int | None) -> SubspaceModel:
+    """Steps (1)-(4) of :func:`pbsid` from the prepared record and its window Gram matrix."""
     m, l_ = data.n_inputs, data.n_outputs
     c = m + l_
     pc = p * c
@@ -117,7 +172,6 @@ def pbsid(
     # Window at time t: z[t-p], ..., z[t-1], z[t] (lag-major, channel-minor), so the VARX
     # regressors [z_p, u_t] lead the column order and the output y_t comes last.
     cols = np.array([(lag, ch) for lag in range(p + 1) for ch in range(c)])
-    gram = hankel_gram(data.z, p + 1)
     pe_rank, pe_cap = excitation_limit(
         gram, m, p + 1, n_fixed, feedthrough, f"past {p} + the current sample"
     )

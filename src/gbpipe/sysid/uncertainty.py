@@ -32,7 +32,7 @@ from gbpipe.errors import ConfigError
 from gbpipe.sysid.checks import as_2d, is_multi
 from gbpipe.sysid.method_moesp import moesp
 from gbpipe.sysid.method_n4sid import n4sid
-from gbpipe.sysid.method_pbsid import pbsid
+from gbpipe.sysid.method_pbsid import pbsid, pbsid_leave_one_out
 from gbpipe.sysid.subspace_model import SubspaceModel
 
 __all__ = ["FRFBounds", "frf_bounds", "group_records"]
@@ -168,10 +168,15 @@ def frf_bounds(
     g = model.frf(f)
     groups = group_records(u, y, int(n_groups))
     n_g = len(groups)
+    u_g, y_g = [grp[0] for grp in groups], [grp[1] for grp in groups]
+    if method is pbsid:  # Gram downdating: the record is read once, not n_groups times
+        fits = pbsid_leave_one_out(u_g, y_g, **kwargs)
+    else:
+        fits = [method([x for j, x in enumerate(u_g) if j != k],
+                       [x for j, x in enumerate(y_g) if j != k], **kwargs) for k in range(n_g)]
     mags, phases = [], []
-    for k in range(n_g):
-        rest = [grp for j, grp in enumerate(groups) if j != k]
-        gk = method([r[0] for r in rest], [r[1] for r in rest], **kwargs).frf(f)
+    for fit in fits:
+        gk = fit.frf(f)
         mags.append(20.0 * np.log10(np.abs(gk)))
         phases.append(np.angle(gk / g))  # relative to the full estimate
     # (G - 1) / G * sum of squares = (G - 1) * np.var (which divides by G).
