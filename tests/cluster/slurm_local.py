@@ -227,6 +227,10 @@ class LocalSlurm:
         dbd.chmod(0o600)  # slurmdbd refuses a readable file (it holds the password)
 
     def _link_default_conf(self) -> None:
+        if _stale_test_link(DEFAULT_CONF):
+            # a test cluster killed before its stop (SIGKILL of pytest): none of its daemons
+            # runs any more, so its link is removed, never a machine's own configuration
+            DEFAULT_CONF.unlink()
         if DEFAULT_CONF.exists() or DEFAULT_CONF.is_symlink():
             raise RuntimeError(f"{DEFAULT_CONF} exists: this machine has a SLURM of its own; "
                                "the test cluster will not replace its configuration")
@@ -331,6 +335,17 @@ class LocalSlurm:
         cluster._procs = [tuple(x) for x in json.loads((Path(root) / "pids.json").read_text())]
         cluster._cgroups_before = set()
         return cluster
+
+
+def _stale_test_link(conf: Path) -> bool:
+    """``conf`` is a symlink to a test cluster's ``slurm.conf`` whose daemons are all gone."""
+    if not conf.is_symlink():
+        return False
+    pids = Path(os.readlink(conf)).parent / "pids.json"
+    if not pids.is_file():
+        return False
+    procs = json.loads(pids.read_text())
+    return not any(_alive(int(x)) for proc in procs for x in proc if isinstance(x, int))
 
 
 def _alive(pid: int) -> bool:

@@ -28,9 +28,11 @@ def test_removed_families_are_exact_multiples(ci_cfg):
     assert fams["shaft"] == [1, 2, 3]
     assert fams["mesh2"][0] == Fraction(3857, 720)
     hss = harmonics.removed_families(fams, harmonics.cycle_orders(stages, ["hss"]))
-    # the HSS cycle takes the shaft orders and the stage-3 mesh (29 teeth on the HSS
-    # pinion: integer orders 29, 58), never the planetary meshes
-    assert set(hss) == {"shaft", "mesh3"} and hss["mesh3"] == [29, 58]
+    # the HSS cycle takes the shaft orders, the stage-3 mesh (29 teeth on the HSS pinion:
+    # integer orders 29, 58) and the converters' pulsating torque (harmonics 6 and 12 of
+    # 2 pole pairs: HSS orders 12, 24), never the planetary meshes
+    assert set(hss) == {"shaft", "mesh3", "motor"} and hss["mesh3"] == [29, 58]
+    assert hss["motor"] == [12, 24]
     car = harmonics.removed_families(fams, harmonics.cycle_orders(stages, ["carrier2"]))
     assert set(car) == {"mesh2"}            # mesh 2 is the 114th carrier-2 order
     assert harmonics.removed_families(fams, harmonics.cycle_orders(stages, ["mesh2"])) == {

