@@ -48,13 +48,9 @@ rule figures_design:
     message:
         "Design figure: predicted band per pairing and test beside the achieved band"
     input:
-        designs=expand(f"{RESULTS}/design/{{test}}_{{profile}}.nc", test=design_tests(),
-                       profile=config["figures"]["test_profile"]),
-        # achieved bands of the identified ramp tests of the same profile
-        models=expand(f"{RESULTS}/identify/{{test}}_{{profile}}_{{method}}.nc",
-                      test=config["identify"]["tests"],
-                      profile=config["figures"]["test_profile"],
-                      method=config["identify"]["methods"]),
+        # every predicted band, and the achieved bands of every identified record
+        designs=rules.design.output.nc,
+        models=lambda w: _id_jobs(),  # identify.smk is included after this file
         code=code("figures_design.py"),
     params:
         versions=config["identify"]["versions"],
