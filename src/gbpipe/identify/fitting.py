@@ -55,7 +55,11 @@ def fit_model(method: str, u: np.ndarray, y: np.ndarray, dt: float,
         Unknown method (and the errors of :mod:`gbpipe.sysid`).
     """
     fn, kwargs = method_arguments(method, dt, s)
-    m = fn(u, y, **kwargs)
+    return _simulable(fn(u, y, **kwargs), dt, s)
+
+
+def _simulable(m: sysid.SubspaceModel, dt: float, s: Mapping[str, Any]) -> sysid.SubspaceModel:
+    # the configured out-of-band reflection (identify.reflect_out_of_band), or m itself
     f_pass = float(s["lowpass"]) * 0.5 / dt
     return reflect_out_of_band(m, f_pass) if s["reflect_out_of_band"] else m
 
@@ -104,9 +108,7 @@ def fit_with_bounds(method: str, u: np.ndarray, y: np.ndarray, dt: float,
     fn, kwargs = method_arguments(method, dt, s)
     b = sysid.frf_bounds(fn, u, y, freq, n_groups=int(s["bounds"]["groups"]),
                          confidence=float(s["bounds"]["confidence"]), **kwargs)
-    f_pass = float(s["lowpass"]) * 0.5 / dt
-    m = reflect_out_of_band(b.model, f_pass) if s["reflect_out_of_band"] else b.model
-    return m, b.mag_db_lower, b.mag_db_upper
+    return _simulable(b.model, dt, s), b.mag_db_lower, b.mag_db_upper
 
 
 def reflect_out_of_band(model: sysid.SubspaceModel, f_pass: float) -> sysid.SubspaceModel:

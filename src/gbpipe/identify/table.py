@@ -75,13 +75,14 @@ def table_rows(datasets: Sequence[xr.Dataset],
             mm = sel.mode_matched.values
             ok = np.isfinite(mt)
             rel = np.abs(mm[ok] - mt[ok]) / mt[ok]
+            pred = _predicted(designs, ds, str(sel.pairing.values))
             rows.append({
                 "test": ds.attrs["test"], "profile": ds.attrs["profile"],
                 "method": ds.attrs["method"], "pairing": str(sel.pairing.values),
                 "version": str(sel.version.values), "inputs": _short(ins),
                 "outputs": _short(outs), "validation": ds.attrs["validation_test"],
                 "order": int(sel.order), "achieved_hz": float(sel.match_bandwidth),
-                "predicted_hz": (pred := _predicted(designs, ds, str(sel.pairing.values))),
+                "predicted_hz": pred,
                 "identifiable": "unknown" if np.isnan(pred) else ("yes" if pred > 0 else "no"),
                 # what the bandwidth is measured against, and up to where it could be
                 "reference": ds.attrs["reference"],

@@ -350,17 +350,14 @@ def random_only(cfg: Mapping[str, Any]) -> dict[str, Any]:
         "shaft_orders": [{**s, "amplitude": 0.0} for s in exc["shaft_orders"]],
         "mesh": [{**m, "amplitude": 0.0} for m in exc["mesh"]],
     }
-    out = {**cfg, "excitation": quiet, "noise": quiet_pulsating(cfg["noise"])}
-    if "noise" in cfg.get("sweep", {}):
-        out["sweep"] = {**cfg["sweep"], "noise": quiet_pulsating(cfg["sweep"]["noise"])}
-    return out
+    # the sweep's noise section is complete after validation (gbpipe.config.derive)
+    sweep = {**cfg["sweep"], "noise": quiet_pulsating(cfg["sweep"]["noise"])}
+    return {**cfg, "excitation": quiet, "noise": quiet_pulsating(cfg["noise"]), "sweep": sweep}
 
 
 def quiet_pulsating(noise: Mapping[str, Any]) -> dict[str, Any]:
     """A ``noise`` section with every pulsating-torque amplitude 0 (nothing else)."""
-    if "motor_ripple" not in noise:  # a partial sweep.noise override
-        return dict(noise)
     ripple = {m: {**spec, "pulsating": [{**line, "amplitude": 0.0}
-                                        for line in spec.get("pulsating", [])]}
+                                        for line in spec["pulsating"]]}
               for m, spec in noise["motor_ripple"].items()}
     return {**noise, "motor_ripple": ripple}
