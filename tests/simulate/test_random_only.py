@@ -71,3 +71,14 @@ def test_sweep_minus_random_only_is_the_harmonic_part(cfg):
     assert np.std(harmonic) > 1.0  # N m: the excitation is there
     assert _angle_locked_share(harmonic, theta, t, orders) > 0.999
     assert _angle_locked_share(rnd[SIGNAL].values[keep], theta, t, orders) < 0.05
+
+
+def test_a_slice_without_a_sweep_is_quieted_too(cfg):
+    # a workflow job for a test record gets the configuration without the sweep section
+    piece = {k: v for k, v in cfg.items() if k != "sweep"}
+    quiet = random_only(piece)
+    assert "sweep" not in quiet
+    assert quiet["excitation"] == random_only(cfg)["excitation"]
+    assert quiet["noise"] == random_only(cfg)["noise"]
+    assert all(p["amplitude"] == 0 for spec in quiet["noise"]["motor_ripple"].values()
+               for p in spec["pulsating"])
