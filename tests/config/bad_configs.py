@@ -233,8 +233,10 @@ CASES: list[tuple[str, str, dict, str]] = [
      {"removal": {"methods": ["tsa"]}, "identify": {"versions": ["clean", "vkf"]}},
      "identify.versions"),
     ("removal_version_without_families", "removal",
-     {"tsa": {"tests": []}, "identify": {"versions": ["clean", "regression"]}},
-     "tsa.tests"),
+     {"removal": {"tests": []}, "identify": {"versions": ["clean", "regression"]}},
+     "removal.tests"),
+    ("removal_cycle_unknown", "removal", {"removal": {"tests": ["hss", "mesh9"]}},
+     "removal.tests[1]"),
     # measured-like noise (issue 14): per-motor ripple, encoder, tachometer jitter
     ("ripple_old_scalar_form", "noise", {"noise": {"motor_ripple": {"driver": 150.0}}},
      "noise.motor_ripple.driver"),

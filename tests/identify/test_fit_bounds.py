@@ -31,7 +31,8 @@ def _data(noise: float, seed: int = 0, n: int = 12000):
 
 
 S = {"order": 4, "max_order": 10, "past": 20, "future": 10, "lowpass": 0.8,
-     "reflect_out_of_band": False, "bounds": {"groups": 5, "confidence": 0.95}}
+     "reflect_out_of_band": False, "factor": "auto", "feedthrough": False,
+     "bounds": {"groups": 5, "confidence": 0.95}}
 
 
 @pytest.mark.parametrize("method", ["pbsid", "moesp"])

@@ -21,7 +21,8 @@ from gbpipe.sysid import SubspaceModel
 DT = 1e-3
 F = np.geomspace(5.0, 300.0, 60)
 SETTINGS = {"order": 4, "max_order": 4, "past": 20, "future": 10, "lowpass": 0.8,
-            "reflect_out_of_band": False}
+            "reflect_out_of_band": False, "factor": "auto",
+            "feedthrough": False}
 
 
 def _plant() -> control.StateSpace:

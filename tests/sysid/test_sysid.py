@@ -6,6 +6,7 @@ import pytest
 import scipy.signal as sig
 from sysid_plants import closed_loop_data, innovation_gain, simulate, two_mode_plant
 
+from gbpipe.errors import ConfigError
 from gbpipe.lti import NamedSS
 from gbpipe.lti.control_io import to_control
 from gbpipe.sysid import SubspaceModel, moesp, n4sid, pbsid
@@ -180,6 +181,31 @@ def test_data_products_match_explicit_hankel():
         assert n_win == h.shape[0]
         np.testing.assert_allclose(r.T @ r, hc.T @ hc, atol=1e-12)
         assert np.allclose(r, np.triu(r))
+
+
+def test_ridge_route_is_the_factor_of_the_data_plus_white_noise():
+    # a deeply low-passed record (as the identify stage's decimated ones): its Gram matrix
+    # is singular to working precision, so the plain Gram factor does not exist
+    rng = np.random.default_rng(5)
+    sos = sig.butter(12, 0.3, output="sos")
+    z = sig.sosfilt(sos, rng.standard_normal((2, 6000)), axis=1)
+    z /= z.std(axis=1, keepdims=True)
+    length = 40
+    cols = np.array([(lag, ch) for lag in range(length) for ch in range(2)])
+    g = hankel_gram(z, length)
+    n_win = 6000 - length + 1
+    r, _ = window_r_factor(z, length, cols, method="ridge")
+    # exactly the Cholesky factor of the Gram matrix plus the documented ridge
+    # (10 eps sqrt(N) times the largest diagonal entry): white noise at ~ -125 dB
+    gs = g / n_win
+    assert np.linalg.cond(gs) > 1e16  # the plain Gram route is not usable here
+    ridge = 10 * np.finfo(float).eps * np.sqrt(n_win) * np.max(np.diag(gs))
+    np.testing.assert_allclose(r.T @ r, gs + ridge * np.eye(gs.shape[0]), atol=1e-12)
+    # and within that ridge of the QR route's (exact) factor
+    r_qr, _ = window_r_factor(z, length, cols, method="qr")
+    assert np.max(np.abs(r.T @ r - r_qr.T @ r_qr)) < 10 * ridge
+    with pytest.raises(ConfigError, match="factor"):
+        window_r_factor(z, length, cols, method="cholesky")
 
 
 def test_stable_predictor_gain_repairs_unstable_gain():

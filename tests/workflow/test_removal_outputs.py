@@ -101,8 +101,11 @@ def test_identification_has_every_removal_version_and_removal_helps(ci_run):
     for r in rows:
         if r["pairing"] == "Tdrv_to_wdrv" and r["status"] == "ok":
             bw[r["version"]] = max(bw[r["version"]], float(r["achieved_hz"]))
-    # the direct pairing, raw against each removal: taking the harmonics out of the
-    # driving torque and speed never narrows the band matched within 1 dB
-    for v in CI["identify"]["versions"]:
-        if v not in ("clean", "raw"):
-            assert bw[v] >= bw["raw"], (v, dict(bw))
+    # the direct pairing, raw against each removal that estimates the line components
+    # only (synchronous average, order envelopes, order fit: nothing between the orders
+    # is edited): taking the harmonics out of the driving torque and speed never narrows
+    # the band matched within 1 dB. DRS and the cepstral lifter filter the whole spectrum
+    # and may (cepstrum: 17 Hz against 45 Hz raw on these records; docs/removal.md)
+    for v in ("tsa", "vkf", "regression"):
+        assert v in CI["identify"]["versions"]
+        assert bw[v] >= bw["raw"], (v, dict(bw))

@@ -138,7 +138,7 @@ rule removal_tests:
         code=code("removal_tests.py"),
     params:
         method_cfg=lambda w: config["removal"][w.method],
-        families_cfg={**FAMILIES_CFG, "tsa": {"tests": config["tsa"]["tests"]}},
+        families_cfg={**FAMILIES_CFG, "removal": {"tests": config["removal"]["tests"]}},
         signals=_id_signals(),
         keep_below=config["identify"]["tsa_keep_below"],
         spectra=config["spectra"],

@@ -7,6 +7,8 @@ configuration and are filled in after the schema (only where the key is absent):
 * ``sweep.noise`` ← every level of the top-level ``noise`` not given for the sweep, so
   ``sweep.noise`` is the sweep's complete noise section;
 * ``identify.tests`` / ``identify.profiles`` ← ``campaign.tests`` / ``campaign.profiles``;
+* ``removal.tests`` ← ``tsa.tests`` (the cycles whose families the removal methods take
+  off the identified tests);
 * ``identify.best`` ← the first configured test, profile, pairing and version;
 * ``identify.max_order`` ← :func:`gbpipe.config.bounds.order_bound` (the bench's states in
   the identified band);
@@ -89,6 +91,7 @@ def derive(cfg: dict[str, Any], order_bound: Callable[[Mapping[str, Any]], int],
             continue
         for name, value in levels.items():
             _fill(sweep_noise[group], name, value, ("sweep", "noise", group), derived)
+    _fill(cfg["removal"], "tests", list(cfg["tsa"]["tests"]), ("removal",), derived)
     idc = cfg["identify"]
     _fill(idc, "tests", cfg["campaign"]["tests"], ("identify",), derived)
     _fill(idc, "profiles", cfg["campaign"]["profiles"], ("identify",), derived)

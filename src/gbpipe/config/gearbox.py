@@ -129,6 +129,9 @@ def check_cycle_names(cfg: Mapping[str, Any]) -> None:
     named = [(f"tsa.variants[{i}].cycles[{j}]", c) for i, v in enumerate(tsa["variants"])
              for j, c in enumerate(v["cycles"])]
     named += [(f"tsa.tests[{j}]", c) for j, c in enumerate(tsa["tests"])]
+    # removal.tests: when absent it is derived from tsa.tests after this check
+    named += [(f"removal.tests[{j}]", c)
+              for j, c in enumerate(cfg["removal"].get("tests", []))]
     stages = cfg["gearbox"]["stages"]
     for field, cycle in named:
         try:

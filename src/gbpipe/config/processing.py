@@ -158,7 +158,7 @@ def check_removal(cfg: Mapping[str, Any]) -> None:
 
     A version beyond :data:`gbpipe.identify.VERSIONS` is a removal method run on the tests: it
     must be in ``removal.methods``, needs simulated tests (bench records have ``raw`` and
-    ``tsa``) and families to remove (those of ``tsa.tests``, as for ``tsa``). A per-family
+    ``tsa``) and families to remove (those of ``removal.tests``). A per-family
     ``regression.knot_spacing`` may name only the gearbox's families (``shaft``,
     ``mesh<k>``) and ``default``, and needs ``default`` unless it names every excited one.
     """
@@ -188,7 +188,8 @@ def check_removal(cfg: Mapping[str, Any]) -> None:
         raise ConfigError("identify.versions", f"{methods}: removal methods other than TSA "
                           "run on the simulated tests only; use raw and tsa for bench records")
     if not test_families(cfg):
-        raise ConfigError("tsa.tests", f"{cfg['tsa']['tests']} removes no excitation family "
-                          f"({sorted(families)}), but identify.versions {methods} remove "
-                          "those of tsa.tests: name a cycle that carries one (e.g. hss)")
+        raise ConfigError("removal.tests", f"{cfg['removal']['tests']} removes no excitation "
+                          f"family ({sorted(families)}), but identify.versions {methods} "
+                          "remove those of removal.tests: name a cycle that carries one "
+                          "(e.g. hss)")
 

@@ -131,8 +131,9 @@ def removed_families(families: Mapping[str, Sequence[Fraction]],
 
 
 def test_families(cfg: Mapping[str, Any]) -> dict[str, list[Fraction]]:
-    """The excitation families that the ``tsa.tests`` cycles remove: what every harmonic-
-    removal version of identification takes off the tests (TSA and the other methods)."""
+    """The excitation families that the ``removal.tests`` cycles remove: what every
+    harmonic-removal version of identification but TSA takes off the tests (TSA removes
+    those of ``tsa.tests``; ``removal.tests`` defaults to it)."""
     return removed_families(excitation_families(cfg),
-                            cycle_orders(cfg["gearbox"]["stages"], cfg["tsa"]["tests"]))
+                            cycle_orders(cfg["gearbox"]["stages"], cfg["removal"]["tests"]))
 

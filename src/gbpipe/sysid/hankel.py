@@ -17,6 +17,8 @@ import numpy as np
 import scipy.linalg as sla
 from scipy.linalg import lapack
 
+from gbpipe.errors import ConfigError
+
 __all__ = ["lagged_products", "hankel_gram", "window_r_factor", "qr_append", "lstsq_r",
            "triangular_cond", "records", "n_windows", "RCOND"]
 
@@ -207,6 +209,10 @@ def window_r_factor(
     * ``"qr"``: tall-skinny Householder QR over chunks of windows: each chunk of the Hankel
       matrix is stacked under the running ``R`` and re-factored. Backward stable even for
       rank-deficient (noise-free) data.
+    * ``"ridge"``: the Gram route when its factor exists with ``cond(R) <= 1e8``, else the
+      Gram route with the ridge below, whatever the noise (QR only when even that fails).
+      For records known to carry noise or process noise that may lie below the check of
+      ``"auto"`` (the identify stage's decimated bench records: docs/sysid.md).
     * ``"auto"`` (default): the Gram route when its factor exists with ``cond(R) <= 1e8``;
       else (e.g. a record low-passed with a deep stop band: its Gram matrix is singular to
       working precision) the Gram route with a ridge of ``10 eps sqrt(N)`` (white noise at
@@ -224,7 +230,7 @@ def window_r_factor(
         ``(lag, channel)`` pair of each column, in the order wanted for the factor.
     chunk_rows : int, optional
         Windows per QR chunk; by default chosen so one chunk is about 4 MiB.
-    method : {"auto", "gram", "qr"}
+    method : {"auto", "ridge", "gram", "qr"}
     gram : ndarray, optional
         ``hankel_gram(z, length)`` when the caller already has it (the excitation check
         uses it first); computed here otherwise.
@@ -242,7 +248,9 @@ def window_r_factor(
     width = columns.shape[0]
     lags = columns[:, 0]
     chans = columns[:, 1]
-    if method in ("auto", "gram"):
+    if method not in ("auto", "ridge", "gram", "qr"):
+        raise ConfigError("factor", f"unknown route {method!r}; use auto, ridge, gram or qr")
+    if method in ("auto", "ridge", "gram"):
         recs = records(z)
         idx = lags * recs[0].shape[0] + chans
         if gram is None:
@@ -254,8 +262,8 @@ def window_r_factor(
             r = None
         if r is not None and (method == "gram" or triangular_cond(r) <= _GRAM_MAX_COND):
             return r, n_win
-        if method == "auto" and n_predicted > 0:
-            r = _ridge_factor(g, n_win, n_predicted)
+        if method == "ridge" or (method == "auto" and n_predicted > 0):
+            r = _ridge_factor(g, n_win, n_predicted if method == "auto" else 0)
             if r is not None:
                 return r, n_win
     if chunk_rows is None:
@@ -276,7 +284,8 @@ def window_r_factor(
 
 
 def _ridge_factor(g: np.ndarray, n_win: int, n_predicted: int) -> np.ndarray | None:
-    """Cholesky factor of ``g + ridge I``, or None when the noise does not dwarf the ridge.
+    """Cholesky factor of ``g + ridge I``, or None when the noise of the ``n_predicted``
+    last columns does not dwarf the ridge (``n_predicted = 0``: no such check).
 
     Not the smallest ridge that makes the rounded Gram matrix positive definite: on
     low-passed stage-size records (``benchmarks/sysid.py --stage-size``, 120 dB stop band)
@@ -288,6 +297,8 @@ def _ridge_factor(g: np.ndarray, n_win: int, n_predicted: int) -> np.ndarray | N
         r = sla.cholesky(g + ridge * np.eye(g.shape[0]), lower=False, check_finite=False)
     except np.linalg.LinAlgError:
         return None
+    if n_predicted == 0:  # no noise check (route "ridge")
+        return r
     k0 = g.shape[0] - n_predicted
     # Residual power of each predicted column after regression on every column before it.
     resid = np.array([r[k0: j + 1, j] @ r[k0: j + 1, j] for j in range(k0, g.shape[0])])

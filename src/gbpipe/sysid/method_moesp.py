@@ -11,7 +11,8 @@ moesp = open_loop_method(
     "moesp",
     """Identify a state-space model with PO-MOESP (past-output MOESP).
 
-    ``moesp(u, y, order, horizon, dt=1.0, *, past=None, feedthrough=False, max_order=None)``
+    ``moesp(u, y, order, horizon, dt=1.0, *, past=None, feedthrough=False, max_order=None,
+    factor="auto")``
 
     The SVD is taken of ``Y_f Pi_Uf_perp Z_p'`` (the LQ block ``L32``): future outputs with the
     future inputs projected out, correlated with the past data (instrumental variable).
@@ -38,6 +39,9 @@ moesp = open_loop_method(
         Estimate ``D`` (default ``False``: ``D = 0``).
     max_order : int, optional
         Upper bound of the ``"auto"`` order.
+    factor : {"auto", "ridge", "gram", "qr"}
+        Route to the triangular factor of the data windows
+        (:func:`gbpipe.sysid.hankel.window_r_factor`); ``"auto"`` by default.
 
     Returns
     -------

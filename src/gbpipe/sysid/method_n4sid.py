@@ -17,7 +17,8 @@ n4sid = open_loop_method(
     "n4sid",
     """Identify a state-space model with N4SID (oblique projection, shift invariance).
 
-    ``n4sid(u, y, order, horizon, dt=1.0, *, past=None, feedthrough=False, max_order=None)``
+    ``n4sid(u, y, order, horizon, dt=1.0, *, past=None, feedthrough=False, max_order=None,
+    factor="auto")``
 
     Same arguments, result and errors as :func:`gbpipe.sysid.moesp` (``past`` is the past
     window in samples, ``>= horizon``); the two methods differ only in the weighting of the

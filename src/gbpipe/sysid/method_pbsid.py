@@ -40,6 +40,7 @@ def pbsid(
     feedthrough: bool = False,
     regularization: float = 0.0,
     max_order: int | None = None,
+    factor: str = "auto",
 ) -> SubspaceModel:
     """Identify an innovation-form state-space model with PBSID-opt.
 
@@ -78,6 +79,9 @@ def pbsid(
         by default. Helps with short or poorly exciting records.
     max_order : int, optional
         Upper bound of the ``"auto"`` order; default ``f * l``.
+    factor : {"auto", "ridge", "gram", "qr"}
+        Route to the triangular factor of the data windows
+        (:func:`gbpipe.sysid.hankel.window_r_factor`); ``"auto"`` by default.
 
     Returns
     -------
@@ -98,13 +102,13 @@ def pbsid(
     """
     data, p, f, dt, n_fixed = _prepared(u, y, order, past, future, dt, regularization)
     return _from_products(data, hankel_gram(data.z, p + 1), p, f, dt, n_fixed, feedthrough,
-                          regularization, max_order)
+                          regularization, max_order, factor)
 
 
 def pbsid_leave_one_out(
     u_groups: list[np.ndarray], y_groups: list[np.ndarray], order: int | str, past: int,
     future: int | None = None, dt: float = 1.0, *, feedthrough: bool = False,
-    regularization: float = 0.0, max_order: int | None = None,
+    regularization: float = 0.0, max_order: int | None = None, factor: str = "auto",
 ) -> list[SubspaceModel]:
     """PBSID on every leave-one-group-out subset of ``G`` groups, for a jackknife.
 
@@ -117,7 +121,7 @@ def pbsid_leave_one_out(
     ----------
     u_groups, y_groups : list of ndarray
         The groups, shapes (N_k,) or (N_k, m) and (N_k,) or (N_k, l); at least 2.
-    order, past, future, dt, feedthrough, regularization, max_order
+    order, past, future, dt, feedthrough, regularization, max_order, factor
         As for :func:`pbsid`.
 
     Returns
@@ -134,7 +138,7 @@ def pbsid_leave_one_out(
         rest = [z for j, z in enumerate(data.z) if j != k]
         sub = replace(data, z=rest, n_samples=sum(z.shape[1] for z in rest))
         out.append(_from_products(sub, total - grams[k], p, f, dt, n_fixed, feedthrough,
-                                  regularization, max_order))
+                                  regularization, max_order, factor))
     return out
 
 
@@ -163,7 +167,7 @@ def _prepared(u: object, y: object, order: int | str, past: int, future: int | N
 
 def _from_products(data: checks.PreparedData, gram: np.ndarray, p: int, f: int, dt: float,
                    n_fixed: int | None, feedthrough: bool, regularization: float,
-                   max_order: int | None) -> SubspaceModel:
+                   max_order: int | None, factor: str = "auto") -> SubspaceModel:
     """Steps (1)-(4) of :func:`pbsid` from the prepared record and its window Gram matrix."""
     m, l_ = data.n_inputs, data.n_outputs
     c = m + l_
@@ -175,7 +179,8 @@ def _from_products(data: checks.PreparedData, gram: np.ndarray, p: int, f: int, 
     pe_rank, pe_cap = excitation_limit(
         gram, m, p + 1, n_fixed, feedthrough, f"past {p} + the current sample"
     )
-    r, n_win = window_r_factor(data.z, p + 1, cols, gram=gram, n_predicted=l_)
+    r, n_win = window_r_factor(data.z, p + 1, cols, gram=gram, n_predicted=l_,
+                               method=factor)
 
     # (1) VARX: y_t = sum_j Xi_j z[t-j] (+ D u_t) + e_t.
     k_reg = pc + (m if feedthrough else 0)

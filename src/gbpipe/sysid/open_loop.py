@@ -61,7 +61,7 @@ def open_loop_method(weighting: str, doc: str, module: str) -> Callable[..., Sub
     -------
     callable
         ``f(u, y, order, horizon, dt=1.0, *, past=None, feedthrough=False,
-        max_order=None) -> SubspaceModel``.
+        max_order=None, factor="auto") -> SubspaceModel``.
     """
 
     def method(
@@ -74,9 +74,10 @@ def open_loop_method(weighting: str, doc: str, module: str) -> Callable[..., Sub
         past: int | None = None,
         feedthrough: bool = False,
         max_order: int | None = None,
+        factor: str = "auto",
     ) -> SubspaceModel:
         return identify_open_loop(
-            u, y, order, horizon, dt, past, feedthrough, max_order, weighting
+            u, y, order, horizon, dt, past, feedthrough, max_order, weighting, factor
         )
 
     method.__name__ = method.__qualname__ = weighting
@@ -95,6 +96,7 @@ def identify_open_loop(
     feedthrough: bool,
     max_order: int | None,
     weighting: str,
+    factor: str = "auto",
 ) -> SubspaceModel:
     """Identify with PO-MOESP (``weighting="moesp"``) or N4SID (``"n4sid"``).
 
@@ -134,7 +136,8 @@ def identify_open_loop(
     pe_rank, pe_cap = excitation_limit(
         gram, m, p + f, n_fixed, feedthrough, f"past {p} + horizon {f}"
     )
-    r, n_win = window_r_factor(data.z, p + f, cols, gram=gram, n_predicted=f * l_)
+    r, n_win = window_r_factor(data.z, p + f, cols, gram=gram, n_predicted=f * l_,
+                               method=factor)
     fm, fl = f * m, f * l_
     i_yf = np.arange(fm + pc, fm + pc + fl)
 
