@@ -32,6 +32,7 @@ __all__ = [
     "order_of",
     "shaft_names",
     "mesh_names",
+    "pulsating_orders",
 ]
 
 _PLANETARY_KEYS = ("ring", "planet", "sun", "planets")
@@ -307,3 +308,26 @@ def frequencies(
     else:
         ds["hss_rpm"] = ((), float(rpm), {"units": "rev/min", "long_name": "HSS speed"})
     return ds
+
+
+def pulsating_orders(ripple: Mapping[str, Any]) -> list[tuple[int, float]]:
+    """Shaft orders and amplitudes of a converter-fed motor's pulsating torque.
+
+    Harmonic ``h`` of the electrical frequency is locked to the motor shaft angle at order
+    ``h x pole_pairs``: the electrical angle is ``pole_pairs`` times the mechanical one.
+    The one place that rule lives (simulation, harmonic families, noise spectra).
+
+    Parameters
+    ----------
+    ripple : mapping
+        One motor's ``noise.motor_ripple`` entry: ``pole_pairs`` (default 1) and
+        ``pulsating``, a list of ``{harmonic, amplitude}`` [1, N m].
+
+    Returns
+    -------
+    list of (int, float)
+        ``(order, amplitude)`` per pulsating line, in the configured order.
+    """
+    pairs = int(ripple.get("pole_pairs", 1))
+    return [(int(line["harmonic"]) * pairs, float(line["amplitude"]))
+            for line in ripple.get("pulsating", ())]

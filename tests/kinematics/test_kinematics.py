@@ -102,3 +102,16 @@ def test_bad_stages_name_the_field(stage, match):
 def test_bad_speed():
     with pytest.raises(ValueError, match="hss_rpm"):
         kinematics.frequencies(TABLE1_STAGES, -5.0)
+
+
+def test_pulsating_orders_are_electrical_harmonics_on_the_shaft():
+    # 2 pole pairs at 1120 rpm: electrical 37.33 Hz; its 6th harmonic, 224 Hz, is order 12
+    # of the 18.67 Hz shaft; 12th harmonic order 24
+    ripple = {"pole_pairs": 2, "pulsating": [{"harmonic": 6, "amplitude": 100.0},
+                                             {"harmonic": 12, "amplitude": 40.0}]}
+    shaft_hz = 1120.0 / 60.0
+    orders = kinematics.pulsating_orders(ripple)
+    assert orders == [(12, 100.0), (24, 40.0)]
+    assert orders[0][0] * shaft_hz == pytest.approx(224.0)
+    one_pair = {"pulsating": [{"harmonic": 6, "amplitude": 1.0}]}  # pole_pairs: 1
+    assert kinematics.pulsating_orders(one_pair) == [(6, 1.0)]

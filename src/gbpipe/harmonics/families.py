@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 
 from gbpipe.harmonics.checks import as_order, as_positive
-from gbpipe.kinematics import order_of
+from gbpipe.kinematics import order_of, pulsating_orders
 
 __all__ = ["family_orders", "cycle_orders", "family_names", "excitation_families",
            "removed_families", "test_families", "structural_modes"]
@@ -109,9 +109,10 @@ def excitation_families(cfg: Mapping[str, Any]) -> dict[str, list[Fraction]]:
         fam[f"mesh{m['stage']}"] = [h * o for h, w in enumerate(m["harmonics"], start=1)
                                     if w > 0 and m["amplitude"] > 0]
     if "noise" in cfg:
-        fam["motor"] = sorted({Fraction(int(line["harmonic"]) * int(spec["pole_pairs"]))
+        fam["motor"] = sorted({Fraction(order)
                                for spec in cfg["noise"]["motor_ripple"].values()
-                               for line in spec["pulsating"] if line["amplitude"] > 0})
+                               for order, amplitude in pulsating_orders(spec)
+                               if amplitude > 0})
     return {k: v for k, v in fam.items() if v}
 
 

@@ -30,6 +30,7 @@ import numpy as np
 from scipy.signal import welch
 
 from gbpipe.errors import ConfigError
+from gbpipe.kinematics import pulsating_orders
 
 __all__ = ["white_psd", "quantised_speed_psd", "line_psd", "ripple_psd", "sensor_psds",
            "reference_psd"]
@@ -93,15 +94,14 @@ def ripple_psd(ripple: Any, fs: float, f_hz: np.ndarray, rotation_hz: tuple[floa
         raise ConfigError(field, f"must be a number or a mapping with 'broadband', got "
                                  f"{ripple!r}; see config/README.md")
     psd = white_psd(float(ripple["broadband"]), fs, f_hz)
-    pairs = float(ripple.get("pole_pairs", 1))
-    for k, line in enumerate(ripple.get("pulsating", ())):
-        try:
-            h, a = float(line["harmonic"]), float(line["amplitude"])
-        except (KeyError, TypeError) as exc:
-            raise ConfigError(f"{field}.pulsating[{k}]", "needs 'harmonic' and 'amplitude'"
-                              ) from exc
-        psd = psd + line_psd(f_hz, h * pairs * rotation_hz[0], h * pairs * rotation_hz[1],
-                             a, resolution)
+    try:
+        lines = pulsating_orders(ripple)
+    except (KeyError, TypeError, ValueError) as exc:
+        raise ConfigError(f"{field}.pulsating", "needs 'harmonic' and 'amplitude' in every "
+                          "line (and an integer pole_pairs)") from exc
+    for order, amplitude in lines:
+        psd = psd + line_psd(f_hz, order * rotation_hz[0], order * rotation_hz[1],
+                             amplitude, resolution)
     return psd
 
 

@@ -32,6 +32,8 @@ from typing import Any
 
 import numpy as np
 
+from gbpipe.kinematics import pulsating_orders
+
 __all__ = ["MOTORS", "MOTOR_ANGLE", "broadband_ripple", "pulsating_torque",
            "quantisation_noise"]
 
@@ -85,9 +87,8 @@ def pulsating_torque(ripple: Mapping[str, Any], angles: Mapping[str, np.ndarray]
         spec = ripple[m]
         phases = rng.uniform(0.0, 2 * np.pi, len(spec["pulsating"]))
         theta = angles[MOTOR_ANGLE[m]]
-        for line, ph in zip(spec["pulsating"], phases, strict=True):
-            order = int(line["harmonic"]) * int(spec["pole_pairs"])
-            out[:, j] += float(line["amplitude"]) * np.sin(order * theta + ph)
+        for (order, amplitude), ph in zip(pulsating_orders(spec), phases, strict=True):
+            out[:, j] += amplitude * np.sin(order * theta + ph)
     return out
 
 
