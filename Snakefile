@@ -41,6 +41,7 @@ include: "workflow/rules/design.smk"
 include: "workflow/rules/identify.smk"
 include: "workflow/rules/removal.smk"
 include: "workflow/rules/measured.smk"
+include: "workflow/rules/fit.smk"
 
 
 onstart:

@@ -45,4 +45,5 @@ def all_targets():
     targets += expand(f"{RESULTS}/tsa/{{v}}.nc", v=list(TSA_VARIANTS))
     for n in (3, 4, 5, 7, 8, 9, 10, 11, 12, 13, 14, 15, 16, 17, "mode_band"):
         targets += figure(n)
-    return targets + identify_targets() + design_targets() + removal_targets()
+    return (targets + identify_targets() + design_targets() + removal_targets()
+            + fit_targets())

@@ -100,6 +100,7 @@ def derive(cfg: dict[str, Any], order_bound: Callable[[Mapping[str, Any]], int],
               "pairing": idc["pairings"][0]["name"], "version": idc["versions"][0]}
     for key, value in firsts.items():
         _fill(best, key, value, ("identify", "best"), derived)
+    _fill(cfg["fit"], "pairings", [p["name"] for p in idc["pairings"]], ("fit",), derived)
     if "max_order" not in idc:
         _fill(idc, "max_order", order_bound(cfg), ("identify",), derived)
     if idc["order"] == "model":

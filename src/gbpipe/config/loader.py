@@ -31,6 +31,7 @@ import yaml
 from gbpipe.config import (
     bounds,
     designed,
+    fit,
     gearbox,
     identification,
     measured,
@@ -41,7 +42,7 @@ from gbpipe.config.derive import Config, derive
 from gbpipe.config.schema_validation import apply_schema
 from gbpipe.errors import ConfigError
 
-__all__ = ["load", "validate", "merge", "read_yaml"]
+__all__ = ["load", "validate", "merge", "read_yaml", "fit_prior"]
 
 
 def merge(base: Mapping[str, Any], overlay: Mapping[str, Any]) -> dict[str, Any]:
@@ -94,9 +95,32 @@ def validate(cfg: Mapping[str, Any], *, check_stability: bool = True) -> Config:
     processing.check_removal(out)
     identification.check_identify(out)
     measured.check_measured(out)
+    fit.check_fit(out)
     if check_stability:
         bounds.check_gains(out)
+    if out["fit"]["records"] and out["fit"]["start"]:
+        fit_prior(out, check_stability=check_stability)   # a bad start fails here, early
     return out
+
+
+def fit_prior(cfg: Mapping[str, Any], *, check_stability: bool = True) -> Config:
+    """The configuration a physical fit starts from: ``cfg`` with ``fit.start`` merged.
+
+    The records are simulated with ``cfg`` itself; a study sets the bench it simulates in
+    ``cfg`` and the nominal bench in ``fit.start`` (docs/fit.md).
+
+    Raises
+    ------
+    ConfigError
+        The merged configuration is invalid; the key path is prefixed with ``fit.start``.
+    """
+    start = cfg["fit"]["start"]
+    prior = merge(cfg, start)
+    prior["fit"]["start"] = {}
+    try:
+        return validate(prior, check_stability=check_stability)
+    except ConfigError as exc:
+        raise ConfigError(f"fit.start ({exc.field})", exc.problem) from None
 
 
 def read_yaml(path: str | os.PathLike) -> dict[str, Any]:

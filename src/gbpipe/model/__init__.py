@@ -24,6 +24,11 @@ FrfData, fit_parameters, FitResult
     95 % intervals and what the data cannot separate (docs/fit.md).
 analyse, design_outputs, Identifiability
     Identifiability from the Jacobian; which added output would separate the parameters.
+jackknife_intervals
+    95 % intervals from a delete-one-band jackknife over frequency (model error).
+fit_data, fit_dataset, parameter_unit
+    The fit stage: identified FRFs to fit (band, predicted identifiable band, weights),
+    and the stage's dataset (rule ``fit``).
 
 ``control.StateSpace`` forms: ``from gbpipe.model.control_models import gearbox, bench``.
 FRFs and modes of any state space: :func:`gbpipe.lti.frf`, :func:`gbpipe.lti.modes`.
@@ -35,6 +40,8 @@ from __future__ import annotations
 from gbpipe.model.assembly import bench_ss, gearbox_ss
 from gbpipe.model.drivetrain import bench_mechanism, gearbox_mechanism
 from gbpipe.model.fit import FitResult, fit_parameters
+from gbpipe.model.fit_bands import jackknife_intervals
+from gbpipe.model.fit_stage import fit_data, fit_dataset, parameter_unit
 from gbpipe.model.frf import Pairing, pairing_frf
 from gbpipe.model.frf_data import FrfData, sigma_from_bounds, sigma_from_coherence
 from gbpipe.model.identifiability import Identifiability, analyse, design_outputs
@@ -48,5 +55,6 @@ __all__ = [
     "truth_dataset", "TORQUES", "Mechanism", "Body", "Spring", "gearbox_mechanism",
     "bench_mechanism", "model_datasets", "Pairing", "pairing_frf", "FrfData",
     "sigma_from_coherence", "sigma_from_bounds", "fit_parameters", "FitResult",
-    "Identifiability", "analyse", "design_outputs",
+    "Identifiability", "analyse", "design_outputs", "fit_data", "fit_dataset",
+    "parameter_unit", "jackknife_intervals",
 ]

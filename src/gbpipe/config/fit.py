@@ -1,0 +1,79 @@
+"""Cross-field checks of the ``fit`` section (physical-parameter fit, docs/fit.md).
+
+The schema checks types and ranges; here: the records, version, method and pairings are
+among the identified ones, the band lies in the identification grid, every free key path
+names a positive number, the bounds are of free parameters, and the weights have the
+bounds they need. The start overlay is validated as a whole configuration by
+:func:`gbpipe.config.loader.validate` (it may not import this module's caller).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any
+
+from gbpipe.config.schema_validation import suggest
+from gbpipe.errors import ConfigError
+from gbpipe.model.keypath import get_value
+
+__all__ = ["check_fit"]
+
+
+def _among(path: str, value: str, valid: list[str], what: str) -> None:
+    if value not in valid:
+        raise ConfigError(path, f"'{value}' is not among the {what} {valid}; "
+                                f"{suggest(value, valid)}")
+
+
+def check_fit(cfg: Mapping[str, Any]) -> None:
+    """Check the ``fit`` section against the identification it fits.
+
+    Raises
+    ------
+    ConfigError
+        Naming the key (``fit.records[0]``, ``fit.free[2]`` …) and the fix.
+    """
+    fit, idc = cfg["fit"], cfg["identify"]
+    if not fit["records"]:
+        return
+    if cfg["measured"]:
+        raise ConfigError("fit.records", "the fit runs on simulated records (identify "
+                          "stage); bench records are not fitted yet: leave fit.records empty")
+    records = [f"{t}_{p}" for t in idc["tests"] for p in idc["profiles"]]
+    for i, r in enumerate(fit["records"]):
+        _among(f"fit.records[{i}]", r, records, "identified records (identify.tests x "
+                                                "identify.profiles)")
+    _among("fit.version", fit["version"], list(idc["versions"]), "identify.versions")
+    _among("fit.method", fit["method"], list(idc["methods"]), "identify.methods")
+    if fit["weight"] != "uniform" and not (
+            fit["method"] in idc["bounds"]["methods"] and idc["bounds"]["groups"] > 0):
+        raise ConfigError("fit.weight", f"'{fit['weight']}' needs the 95 % bounds of the "
+                          f"{fit['method']} models: add it to identify.bounds.methods with "
+                          "identify.bounds.groups > 0, or set fit.weight: uniform")
+    names = [p["name"] for p in idc["pairings"]]
+    for i, p in enumerate(fit["pairings"]):
+        _among(f"fit.pairings[{i}]", p, names, "identify.pairings")
+    if 0 < fit["jackknife"] < 3:
+        raise ConfigError("fit.jackknife", f"{fit['jackknife']} bands: use 0 (Fisher "
+                          "intervals only) or at least 3")
+    lo, hi = fit["band"]
+    f_min, f_max = idc["frf"]["f_min"], idc["frf"]["f_max"]
+    if not f_min <= lo < hi <= f_max:
+        raise ConfigError("fit.band", f"[{lo}, {hi}] Hz must be increasing and inside the "
+                          f"identification grid identify.frf [{f_min}, {f_max}] Hz")
+    for i, path in enumerate(fit["free"]):
+        if not path.startswith(("gearbox.", "bench.")):
+            raise ConfigError(f"fit.free[{i}]", f"'{path}' is not a number of the bench "
+                              "model: free keys of the gearbox or bench sections, e.g. "
+                              "'gearbox.stiffness[1]'")
+        try:
+            value = get_value(cfg, path)
+        except ConfigError as exc:
+            raise ConfigError(f"fit.free[{i}]", f"'{path}': {exc.problem}") from None
+        if not value > 0:
+            raise ConfigError(f"fit.free[{i}]", f"'{path}' is {value}: the fit works on "
+                              "log-parameters and needs a prior > 0")
+    for path, (b_lo, b_hi) in fit["bounds"].items():
+        _among(f"fit.bounds.{path}", path, list(fit["free"]), "free parameters (fit.free)")
+        if not b_lo < b_hi:
+            raise ConfigError(f"fit.bounds.{path}", f"[{b_lo}, {b_hi}] must be increasing")

@@ -1,0 +1,268 @@
+"""The fit stage: identified models in, fitted physical parameters out (rule ``fit``).
+
+:func:`fit_data` turns one identify output (``identify/{record}_{method}.nc``) into the
+FRFs to fit: one version's identified FRFs of the chosen pairings, inside the fitted band
+and where the design step (``design/{record}.nc``, computed from the bench model and the
+excitation before identification) predicts each pairing identifiable, weighted by the
+models' 95 % bounds. :func:`fit_dataset` writes what came out: estimates, intervals,
+correlations, what the data cannot separate, the FRFs before and after, and which added
+output would determine what is undetermined. See docs/fit.md.
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+import numpy as np
+import xarray as xr
+
+from gbpipe.errors import DataError
+from gbpipe.model.fit import FitResult
+from gbpipe.model.frf import MOTOR_INPUTS, Pairing, pairing_frf
+from gbpipe.model.frf_data import FrfData, sigma_from_bounds
+from gbpipe.model.identifiability import design_outputs
+
+__all__ = ["fit_data", "fit_dataset", "parameter_unit", "WEIGHTS", "CANDIDATE_OUTPUTS"]
+
+log = logging.getLogger(__name__)
+
+#: Residual weightings: one sigma per pairing (the median of its 95 % bounds), per
+#: frequency (the bounds themselves), or none. A 3-group jackknife gives each frequency's
+#: sigma with 2 degrees of freedom: weighting single frequencies by it follows its scatter
+#: (docs/fit.md), so the default uses the bounds only to weigh pairings against each other.
+WEIGHTS = ("pairing", "bounds", "uniform")
+#: Outputs a design-help candidate may add (each with every fitted input).
+CANDIDATE_OUTPUTS = ("speed_gb2_hss", "speed_gb1_hss", "speed_lss", "torque_meter_driving",
+                     "torque_meter_driven")
+_UNITS = {"inertia": "kg m2", "stiffness": "N m rad-1", "damping_ratio": "1",
+          "speed_controller.kp": "N m s rad-1", "speed_controller.ki": "N m rad-1",
+          "torque_controller.kp": "1", "torque_controller.ki": "s-1"}
+
+
+def parameter_unit(path: str) -> str:
+    """UDUNITS unit of a free parameter's key path (e.g. ``N m rad-1`` for a stiffness)."""
+    for key, unit in _UNITS.items():
+        if "." in key and key in path:
+            return unit
+    for key, unit in _UNITS.items():
+        if key in path:
+            return unit
+    return "1"
+
+
+def _model_index(identified: xr.Dataset, pairing: str, version: str) -> int:
+    hit = np.nonzero((identified.pairing.values == pairing)
+                     & (identified.version.values == version))[0]
+    if hit.size != 1:
+        raise DataError(f"identified models ({identified.attrs.get('test', '?')})",
+                        f"no model of pairing {pairing}, version {version}: identify it "
+                        "(identify.pairings, identify.versions)")
+    return int(hit[0])
+
+
+def fit_data(identified: xr.Dataset, identifiable: xr.DataArray, pairings: Sequence[Pairing],
+             version: str, band: Sequence[float], weight: str) -> list[FrfData]:
+    """The identified FRFs to fit, masked to the band and the predicted identifiable band.
+
+    Parameters
+    ----------
+    identified : xarray.Dataset
+        An identify output (``frf_identified_*``, ``frf_identified_{lower,upper}_db``).
+    identifiable : xarray.DataArray
+        The design step's ``identifiable`` (pairing, frequency) on the same grid.
+    pairings : sequence of Pairing
+        The pairings to fit.
+    version : str
+        Data version (``clean``, ``raw``, ``tsa``, a removal method).
+    band : (float, float)
+        Fitted band [Hz].
+    weight : {"pairing", "bounds", "uniform"}
+        See :data:`WEIGHTS`.
+
+    Returns
+    -------
+    list of FrfData
+        One per pairing with at least one fitted frequency (the others are logged).
+
+    Raises
+    ------
+    DataError
+        A pairing that failed identification, grids that differ, a pairing without bounds
+        when they weigh the fit, or nothing left to fit.
+    """
+    f = identified.frequency.values
+    if not np.allclose(identifiable.frequency.values, f, rtol=1e-9):
+        raise DataError("design step", "its frequency grid differs from the identified "
+                                       "FRFs': rerun both with the same identify.frf")
+    in_band = (f >= band[0]) & (f <= band[1])
+    out = []
+    for p in pairings:
+        d = identified.isel(model=_model_index(identified, p.name, version))
+        if str(d.status.values) != "ok":
+            raise DataError(f"pairing {p.name}, version {version}", f"identification "
+                            f"failed ({d.status.values}): leave it out of fit.pairings")
+        no, ni = len(p.outputs), len(p.inputs)
+        g = (d.frf_identified_real + 1j * d.frf_identified_imag).values[:, :no, :ni].copy()
+        keep = in_band & identifiable.sel(pairing=p.name).values.astype(bool)
+        g[~keep] = np.nan
+        if not keep.any():
+            log.info("%s: not predicted identifiable in %s Hz, left out", p.name, list(band))
+            continue
+        sigma = None
+        if weight != "uniform":
+            lo = 10 ** (d.frf_identified_lower_db.values[:, :no, :ni] / 20)
+            hi = 10 ** (d.frf_identified_upper_db.values[:, :no, :ni] / 20)
+            if not np.all(np.isfinite(lo[keep]) & np.isfinite(hi[keep])):
+                raise DataError(f"pairing {p.name}", "its model has no 95 % bounds: bound "
+                                "this method (identify.bounds) or set fit.weight: uniform")
+            # floor at 1e-6 Np: a jackknife of exactly repeated data has zero spread
+            sigma = np.maximum(sigma_from_bounds(lo, hi), 1e-6)
+            if weight == "pairing":
+                sigma = np.full(g.shape, float(np.median(sigma[keep])))
+        out.append(FrfData(p, f, g, sigma))
+        log.info("%s: %d frequencies from %.1f to %.1f Hz%s", p.name, int(keep.sum()),
+                 f[keep].min(), f[keep].max(), "" if sigma is None else
+                 f", sigma median {np.median(sigma[keep]):.2g} Np")
+    if not out:
+        raise DataError("fit data", f"no pairing is predicted identifiable in {list(band)} "
+                                    "Hz: widen fit.band or choose other fit.pairings")
+    return out
+
+
+def _candidates(data: Sequence[FrfData]) -> list[Pairing]:
+    # an added sensor (another output of a fitted input) or an added excitation (the
+    # other motor's torque to any output): every SISO path not fitted yet
+    used = {(u, y) for d in data for u in d.pairing.inputs for y in d.pairing.outputs}
+    return [Pairing(f"{u}_to_{y}", (u,), (y,)) for u in MOTOR_INPUTS
+            for y in CANDIDATE_OUTPUTS if (u, y) not in used]
+
+
+def fit_dataset(result: FitResult, data: Sequence[FrfData], prior_cfg: Mapping[str, Any],
+                identified: xr.Dataset, version: str) -> xr.Dataset:
+    """Everything one fit produced, as a CF dataset (docs/architecture.md, "Data contract").
+
+    Parameters
+    ----------
+    result : FitResult
+    data : sequence of FrfData
+        What was fitted.
+    prior_cfg : mapping
+        The configuration the fit started from.
+    identified : xarray.Dataset
+        The identify output (for the 95 % bounds drawn with the data).
+    version : str
+        The fitted data version.
+    """
+    pairings = [d.pairing for d in data]
+    f = data[0].f_hz
+    no = max(len(p.outputs) for p in pairings)
+    ni = max(len(p.inputs) for p in pairings)
+
+    def pad(arrays: Sequence[np.ndarray], fill: float = np.nan) -> np.ndarray:
+        out = np.full((len(arrays), f.size, no, ni), fill, dtype=np.asarray(arrays[0]).dtype)
+        for k, a in enumerate(arrays):
+            out[k, :, :a.shape[1], :a.shape[2]] = a
+        return out
+
+    # the data on the whole grid (NaN marks what the fit left out: keep it for the figure)
+    full, lower, upper = [], [], []
+    for d in data:
+        m = identified.isel(model=_model_index(identified, d.pairing.name, version))
+        o, i = len(d.pairing.outputs), len(d.pairing.inputs)
+        full.append((m.frf_identified_real + 1j * m.frf_identified_imag).values[:, :o, :i])
+        lower.append(m.frf_identified_lower_db.values[:, :o, :i])
+        upper.append(m.frf_identified_upper_db.values[:, :o, :i])
+    g_data = pad(full)
+    g_prior = pad(pairing_frf(prior_cfg, pairings, f))
+    g_fit = pad(pairing_frf(result.config, pairings, f))
+    fitted = np.stack([d.mask.any(axis=(1, 2)) for d in data])
+    if result.delay:    # the fitted model as the data see it: with the fitted delay
+        g_fit = g_fit * np.exp(-2j * np.pi * f * result.delay)[None, :, None, None]
+    design = design_outputs(result.config, result.free, pairings, _candidates(data), f,
+                            sigma=max(result.noise_scale * float(np.median(
+                                [np.median(1 / d.weight) for d in data])), 1e-6))
+    par = result.free
+    pdim, fdim = ("parameter",), ("pairing", "frequency", "output", "input")
+    units = [parameter_unit(p) for p in par]
+
+    def var(dims: tuple[str, ...], values: Any, unit: str, name: str) -> tuple:
+        return dims, values, {"units": unit, "long_name": name}
+
+    ds = xr.Dataset(
+        {
+            "prior": var(pdim, result.prior, "mixed (see parameter_units)",
+                         "value the fit started from"),
+            "estimate": var(pdim, result.value, "mixed (see parameter_units)",
+                            "fitted value (the prior for an unidentifiable parameter)"),
+            "interval_lower": var(pdim, result.interval[:, 0], "mixed (see parameter_units)",
+                                  "lower end of the 95 % interval"),
+            "interval_upper": var(pdim, result.interval[:, 1], "mixed (see parameter_units)",
+                                  "upper end of the 95 % interval"),
+            "status": var(pdim, np.array(result.status), "1",
+                          "identified, conditional (partner held) or unidentifiable"),
+            "correlation": var(("parameter", "parameter_col"), result.correlation, "1",
+                               "correlation of the identified log-parameters"),
+            "delay": var((), result.delay, "s", "fitted input-to-output delay"),
+            "delay_lower": var((), result.delay_interval[0], "s",
+                               "lower end of the delay's 95 % interval"),
+            "delay_upper": var((), result.delay_interval[1], "s",
+                               "upper end of the delay's 95 % interval"),
+            "cost_prior": var((), result.cost_prior, "1",
+                              "half sum of squared weighted residuals at the prior"),
+            "cost": var((), result.cost, "1", "half sum of squared weighted residuals"),
+            "noise_scale": var((), result.noise_scale, "1",
+                               "standard deviation of a weighted residual (interval scale)"),
+            "start_cost": var(("start",), result.start_costs, "1",
+                              "final cost of each local start"),
+            "fitted": var(("pairing", "frequency"), fitted, "1",
+                          "frequency entered the fit (in band, predicted identifiable)"),
+            "frf_data_real": var(fdim, g_data.real, "mixed (see frf_unit)",
+                                 "identified FRF (the data), real part"),
+            "frf_data_imag": var(fdim, g_data.imag, "mixed (see frf_unit)",
+                                 "identified FRF (the data), imaginary part"),
+            "frf_data_lower_db": var(fdim, pad(lower), "dB",
+                                     "95 % lower bound of the identified magnitude"),
+            "frf_data_upper_db": var(fdim, pad(upper), "dB",
+                                     "95 % upper bound of the identified magnitude"),
+            "frf_prior_real": var(fdim, g_prior.real, "mixed (see frf_unit)",
+                                  "model FRF at the prior, real part"),
+            "frf_prior_imag": var(fdim, g_prior.imag, "mixed (see frf_unit)",
+                                  "model FRF at the prior, imaginary part"),
+            "frf_fitted_real": var(fdim, g_fit.real, "mixed (see frf_unit)",
+                                   "fitted model FRF (with the fitted delay), real part"),
+            "frf_fitted_imag": var(fdim, g_fit.imag, "mixed (see frf_unit)",
+                                   "fitted model FRF (with the fitted delay), imaginary "
+                                   "part"),
+            "design_rank": var(("candidate",), [r["rank"] for r in design], "1",
+                               "determined directions with the candidate output added"),
+            "design_identifiable": var(("candidate",), np.array(
+                [", ".join(r["identifiable"]) for r in design]), "1",
+                "free parameters the data would determine with the candidate added"),
+        },
+        coords={
+            "parameter": var(pdim, np.array(par), "1", "free parameter (config key path)"),
+            "parameter_col": var(("parameter_col",), np.array(par), "1",
+                                 "free parameter (config key path)"),
+            "parameter_units": var(pdim, np.array(units), "1", "unit of each parameter"),
+            "start": var(("start",), np.arange(result.start_costs.size), "1",
+                         "local least-squares start"),
+            "pairing": var(("pairing",), np.array([p.name for p in pairings]), "1",
+                           "fitted pairing"),
+            "frequency": var(("frequency",), f, "Hz", "frequency"),
+            "output": var(("output",), np.arange(no), "1", "output index"),
+            "input": var(("input",), np.arange(ni), "1", "input index"),
+            "frf_unit": var(("pairing",), np.array([str(identified.frf_unit.values[
+                _model_index(identified, p.name, version)]) for p in pairings]), "1",
+                "unit of each pairing's FRF"),
+            "candidate": var(("candidate",), np.array(
+                ["(as fitted)" if r["added"] is None else r["added"] for r in design]), "1",
+                "output added by the design help (first: none)"),
+        },
+        attrs={"version": version, "n_free": len(par),
+               "interval_method": result.interval_method,
+               "cannot_separate": " | ".join(result.combinations) or "(nothing)",
+               "n_evaluations": result.n_evaluations},
+    )
+    return ds

@@ -1,0 +1,75 @@
+"""The fit stage through the workflow: on the CI run (the simulated bench is the config,
+so the fit must stay at it) and on a bench perturbed by +-30 % that the fit must find
+from the nominal config (config/examples/fit_perturbed.yaml, on the CI's shorter records).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import yaml
+
+from gbpipe import io
+from gbpipe.config import load
+from gbpipe.model.keypath import get_value
+from tests.conftest import ROOT
+from tests.workflow.runs import copy_repo, snakemake
+
+CONFIGS = (ROOT / "config" / "config.yaml", ROOT / "config" / "ci.yaml")
+PERTURBED = ROOT / "config" / "examples" / "fit_perturbed.yaml"
+HALF_SAMPLE = 0.5 / 5000.0       # s: the zero-order hold of the 5 kHz simulation
+
+
+def _check_overlay(work, record, ds, *overlays):
+    """The overlay YAML is a valid --configfile holding exactly the fitted values."""
+    path = work / "results" / "fit" / f"{record}.yaml"
+    over = yaml.safe_load(path.read_text())
+    cfg = load(*CONFIGS, *overlays, over)
+    for p, v in zip(ds.parameter.values, ds.estimate.values, strict=True):
+        assert get_value(cfg, str(p)) == pytest.approx(float(v), rel=1e-12)
+
+
+def test_fit_of_the_ci_run_stays_at_the_simulated_bench(ci_run):
+    cfg = load(*CONFIGS)
+    for record in cfg["fit"]["records"]:
+        ds = io.read(ci_run / "results" / "fit" / f"{record}.nc")
+        truth = np.array([get_value(cfg, str(p)) for p in ds.parameter.values])
+        ident = ds.status.values == "identified"
+        assert ident.sum() >= 4
+        # measured-like data (the issue's criterion: within 10 %)
+        err = np.abs(ds.estimate.values / truth - 1)
+        assert np.all(err[ident] < 0.10), dict(zip(ds.parameter.values, err, strict=True))
+        # the measurement chain's delay is the simulation's half-sample hold
+        assert float(ds.delay_lower) <= HALF_SAMPLE <= float(ds.delay_upper)
+        assert float(ds.delay) == pytest.approx(HALF_SAMPLE, rel=0.25)
+        assert ds.estimate.attrs["units"] and ds.parameter_units.size == truth.size
+        _check_overlay(ci_run, record, ds)
+        caption = (ci_run / "results" / "report" / f"fig_fit_{record}.rst").read_text()
+        for p in ds.parameter.values:
+            assert str(p) in caption
+
+
+def test_a_perturbed_bench_is_found_from_the_nominal_one(tmp_path):
+    """Six parameters at +-30 %, clean records, the fit starting from the nominal bench:
+    every identifiable parameter within 2 %, the unused gear damping reported as such."""
+    work = copy_repo(tmp_path)
+    study = {"identify": {"versions": ["clean"], "best": {"version": "clean"}}}
+    (work / "study.yaml").write_text(yaml.safe_dump(study))
+    record = "ms_torque_square"
+    snakemake(work, "--configfile", "config/ci.yaml", str(PERTURBED), "study.yaml", "--",
+              f"results/fit/{record}.nc", f"results/fit/{record}.yaml")
+    truth_cfg = load(*CONFIGS, PERTURBED, study)
+    ds = io.read(work / "results" / "fit" / f"{record}.nc")
+    names = [str(p) for p in ds.parameter.values]
+    truth = np.array([get_value(truth_cfg, p) for p in names])
+    nominal = load(*CONFIGS)
+    assert np.allclose(ds.prior.values, [get_value(nominal, p) for p in names])
+    assert np.all(np.abs(ds.prior.values / truth - 1) > 0.2)     # the start is far off
+    status = dict(zip(names, ds.status.values, strict=True))
+    assert status.pop("gearbox.damping_ratio.gear") == "unidentifiable"
+    assert "gearbox.damping_ratio.gear" in ds.attrs["cannot_separate"]
+    ident = ds.status.values == "identified"
+    assert ident.sum() == 5 and set(status.values()) == {"identified"}
+    err = np.abs(ds.estimate.values / truth - 1)
+    assert np.all(err[ident] < 0.02), dict(zip(names, err, strict=True))
+    _check_overlay(work, record, ds, PERTURBED, study)

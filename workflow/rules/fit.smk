@@ -1,0 +1,62 @@
+# Physical-parameter fit (the paper's future work, docs/fit.md): identify + design ->
+# fit {record} -> fit/{record}.nc, a config overlay of the fitted values, and its figure.
+import gbpipe.config
+
+
+def fit_targets():
+    """Every fit, its overlay and its figure (for `all_targets`)."""
+    out = []
+    for record in config["fit"]["records"]:
+        out += [f"{RESULTS}/fit/{record}.nc", f"{RESULTS}/fit/{record}.yaml"]
+        out += figure(f"fit_{record}")
+    return out
+
+
+def _fit_prior():
+    # the bench the fit starts from: the config with fit.start merged (validated at load)
+    prior = gbpipe.config.fit_prior(config) if config["fit"]["start"] else config
+    return {k: prior[k] for k in ("gearbox", "bench")}
+
+
+rule fit:
+    message:
+        "Fit {params.n_free} physical parameters to the identified FRFs of {wildcards.record}"
+    wildcard_constraints:
+        record="|".join(config["fit"]["records"]) or "no_fit_records",
+    input:
+        identified=f"{RESULTS}/identify/{{record}}_{config['fit']['method']}.nc",
+        # the predicted identifiable band of each pairing (one design job for every record)
+        design=f"{RESULTS}/design/{{record}}.nc",
+        code=code("fit.py"),
+    params:
+        cfg={"seed": config["seed"], "fit": config["fit"],
+             "pairings": [p for p in config["identify"]["pairings"]
+                          if p["name"] in config["fit"]["pairings"]]},
+        prior=_fit_prior(),
+        n_free=len(config["fit"]["free"]),
+    output:
+        nc=f"{RESULTS}/fit/{{record}}.nc",
+        overlay=f"{RESULTS}/fit/{{record}}.yaml",
+    log:
+        f"{RESULTS}/logs/fit/{{record}}.log",
+    benchmark:
+        f"{RESULTS}/benchmarks/fit/{{record}}.tsv"
+    script:
+        "../scripts/fit.py"
+
+
+rule figures_fit:
+    message:
+        "Fit figure of {wildcards.record}: data with bounds, prior and fitted model, "
+        "parameter table"
+    wildcard_constraints:
+        record="|".join(config["fit"]["records"]) or "no_fit_records",
+    input:
+        nc=rules.fit.output.nc,
+        code=code("figures_fit.py"),
+    output:
+        **figure_outputs("fit_{record}", "Physical fit", name="fig_fit"),
+    log:
+        f"{RESULTS}/logs/figures_fit/{{record}}.log",
+    script:
+        "../scripts/figures_fit.py"
