@@ -153,7 +153,7 @@ def test_order_bound_counts_the_bench_states_in_band():
 
 
 def test_max_order_follows_the_gearbox():
-    example = load(CONFIG, EXAMPLES[0])
+    example = load(CONFIG, ROOT / "config" / "examples" / "gearbox_1planetary_2parallel.yaml")
     assert example["identify"]["max_order"] != load(CONFIG)["identify"]["max_order"]
 
 

@@ -73,3 +73,27 @@ def test_a_perturbed_bench_is_found_from_the_nominal_one(tmp_path):
     err = np.abs(ds.estimate.values / truth - 1)
     assert np.all(err[ident] < 0.02), dict(zip(names, err, strict=True))
     _check_overlay(work, record, ds, PERTURBED, study)
+
+
+def test_a_bench_record_is_fitted_where_its_data_are_coherent(measured_run):
+    """The measured example (bench files written from a simulated record of the config's
+    bench): every identified parameter's interval covers the bench it was written from,
+    an undetermined one keeps no interval, and added data never lowers the design rank."""
+    work, truth = measured_run
+    cfg = truth["cfg"]
+    ds = io.read(work / "results" / "fit" / "run12.nc")
+    names = [str(p) for p in ds.parameter.values]
+    true = np.array([get_value(cfg, p) for p in names])
+    ident = ds.status.values == "identified"
+    assert ident.any()
+    lo, hi = ds.interval_lower.values, ds.interval_upper.values
+    assert np.all((lo[ident] <= true[ident]) & (true[ident] <= hi[ident]))
+    assert np.all(np.abs(ds.estimate.values[ident] / true[ident] - 1) < 0.10)
+    assert np.all(np.isnan(lo[~ident]))
+    # the design help's first row is what the fit determined; a candidate only adds rows
+    rank = ds.design_rank.values
+    # each undetermined direction flags at least one parameter: identified <= rank
+    assert int(ident.sum()) <= rank[0] <= len(names)
+    assert np.all(rank[1:] >= rank[0])
+    # fitted only where the record's nonparametric FRF is coherent: a subset of the grid
+    assert 0 < int(ds.fitted.values.sum()) < ds.fitted.size

@@ -29,7 +29,7 @@ def figure_outputs(n, category, name=None):
 
 def all_targets():
     if config["measured"]:
-        return measured_targets()
+        return measured_targets() + fit_targets()
     targets = [
         f"{RESULTS}/kinematics/frequencies.nc",
         f"{RESULTS}/tables/table2.csv",

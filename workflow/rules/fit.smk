@@ -1,5 +1,6 @@
 # Physical-parameter fit (the paper's future work, docs/fit.md): identify + design ->
 # fit {record} -> fit/{record}.nc, a config overlay of the fitted values, and its figure.
+# A bench record (measured:) is fitted where its nonparametric FRF is coherent instead.
 import gbpipe.config
 
 
@@ -10,6 +11,23 @@ def fit_targets():
         out += [f"{RESULTS}/fit/{record}.nc", f"{RESULTS}/fit/{record}.yaml"]
         out += figure(f"fit_{record}")
     return out
+
+
+def _fit_inputs(w):
+    method = config["fit"]["method"]
+    if config["measured"]:
+        return {"identified": f"{RESULTS}/identify/measured/{w.record}_{method}.nc"}
+    # the predicted identifiable band of each pairing (one design job for every record)
+    return {"identified": f"{RESULTS}/identify/{w.record}_{method}.nc",
+            "design": f"{RESULTS}/design/{w.record}.nc"}
+
+
+def _fit_pairings():
+    # the fitted pairings with the bench model's signal names (fit.signals)
+    return [{"name": p["name"],
+             **{k: [gbpipe.config.model_signal(config, s) for s in p[k]]
+                for k in ("inputs", "outputs")}}
+            for p in config["identify"]["pairings"] if p["name"] in config["fit"]["pairings"]]
 
 
 def _fit_prior():
@@ -24,14 +42,10 @@ rule fit:
     wildcard_constraints:
         record="|".join(config["fit"]["records"]) or "no_fit_records",
     input:
-        identified=f"{RESULTS}/identify/{{record}}_{config['fit']['method']}.nc",
-        # the predicted identifiable band of each pairing (one design job for every record)
-        design=f"{RESULTS}/design/{{record}}.nc",
+        unpack(_fit_inputs),
         code=code("fit.py"),
     params:
-        cfg={"seed": config["seed"], "fit": config["fit"],
-             "pairings": [p for p in config["identify"]["pairings"]
-                          if p["name"] in config["fit"]["pairings"]]},
+        cfg={"seed": config["seed"], "fit": config["fit"], "pairings": _fit_pairings()},
         prior=_fit_prior(),
         n_free=len(config["fit"]["free"]),
     output:

@@ -12,8 +12,11 @@ p, i, out = snakemake.params, snakemake.input, snakemake.output
 fit = p.cfg["fit"]
 identified = io.read(i.identified)
 pairings = [model.Pairing.from_config(q) for q in p.cfg["pairings"]]
-data = model.fit_data(identified, io.read(i.design).identifiable, pairings, fit["version"],
-                      fit["band"], fit["weight"])
+# a simulated record: the design step's predicted band; a bench record: where its
+# nonparametric FRF is coherent
+band = (io.read(i.design).identifiable if "design" in i.keys()
+        else model.assessable_band(identified, fit["version"]))
+data = model.fit_data(identified, band, pairings, fit["version"], fit["band"], fit["weight"])
 log.info("fitting %s from the prior (fit.start) to %d pairings, version %s",
          ", ".join(fit["free"]), len(data), fit["version"])
 res = model.fit_parameters(p.prior, data, fit["free"], bounds=fit["bounds"],

@@ -101,6 +101,7 @@ def derive(cfg: dict[str, Any], order_bound: Callable[[Mapping[str, Any]], int],
     for key, value in firsts.items():
         _fill(best, key, value, ("identify", "best"), derived)
     _fill(cfg["fit"], "pairings", [p["name"] for p in idc["pairings"]], ("fit",), derived)
+    _fill(cfg["fit"], "band", [idc["frf"]["f_min"], idc["frf"]["f_max"]], ("fit",), derived)
     if "max_order" not in idc:
         _fill(idc, "max_order", order_bound(cfg), ("identify",), derived)
     if idc["order"] == "model":

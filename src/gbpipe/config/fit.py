@@ -14,9 +14,11 @@ from typing import Any
 
 from gbpipe.config.schema_validation import suggest
 from gbpipe.errors import ConfigError
+from gbpipe.model import bench_ss
+from gbpipe.model.frf import MOTOR_INPUTS
 from gbpipe.model.keypath import get_value
 
-__all__ = ["check_fit"]
+__all__ = ["check_fit", "model_signal"]
 
 
 def _among(path: str, value: str, valid: list[str], what: str) -> None:
@@ -37,12 +39,12 @@ def check_fit(cfg: Mapping[str, Any]) -> None:
     if not fit["records"]:
         return
     if cfg["measured"]:
-        raise ConfigError("fit.records", "the fit runs on simulated records (identify "
-                          "stage); bench records are not fitted yet: leave fit.records empty")
-    records = [f"{t}_{p}" for t in idc["tests"] for p in idc["profiles"]]
+        records, what = list(cfg["measured"]), "bench records (measured:)"
+    else:
+        records = [f"{t}_{p}" for t in idc["tests"] for p in idc["profiles"]]
+        what = "identified records (identify.tests x identify.profiles)"
     for i, r in enumerate(fit["records"]):
-        _among(f"fit.records[{i}]", r, records, "identified records (identify.tests x "
-                                                "identify.profiles)")
+        _among(f"fit.records[{i}]", r, records, what)
     _among("fit.version", fit["version"], list(idc["versions"]), "identify.versions")
     _among("fit.method", fit["method"], list(idc["methods"]), "identify.methods")
     if fit["weight"] != "uniform" and not (
@@ -53,6 +55,7 @@ def check_fit(cfg: Mapping[str, Any]) -> None:
     names = [p["name"] for p in idc["pairings"]]
     for i, p in enumerate(fit["pairings"]):
         _among(f"fit.pairings[{i}]", p, names, "identify.pairings")
+    _check_signals(cfg)
     if 0 < fit["jackknife"] < 3:
         raise ConfigError("fit.jackknife", f"{fit['jackknife']} bands: use 0 (Fisher "
                           "intervals only) or at least 3")
@@ -77,3 +80,22 @@ def check_fit(cfg: Mapping[str, Any]) -> None:
         _among(f"fit.bounds.{path}", path, list(fit["free"]), "free parameters (fit.free)")
         if not b_lo < b_hi:
             raise ConfigError(f"fit.bounds.{path}", f"[{b_lo}, {b_hi}] must be increasing")
+
+
+def model_signal(cfg: Mapping[str, Any], name: str) -> str:
+    """The bench model's name of a record signal (``fit.signals``, else the same)."""
+    return cfg["fit"]["signals"].get(name, name)
+
+
+def _check_signals(cfg: Mapping[str, Any]) -> None:
+    """Every signal of a fitted pairing is (or is mapped to) a signal of the bench model."""
+    outputs = bench_ss(cfg, closed=False).outputs
+    fit = cfg["fit"]
+    for name in fit["pairings"]:
+        pairing = next(p for p in cfg["identify"]["pairings"] if p["name"] == name)
+        for key, valid in (("inputs", list(MOTOR_INPUTS)), ("outputs", list(outputs))):
+            for s in pairing[key]:
+                if model_signal(cfg, s) not in valid:
+                    raise ConfigError(f"fit.signals.{s}", f"'{model_signal(cfg, s)}' (pairing "
+                                      f"{name}) is not among the bench model's {key} "
+                                      f"{valid}: map the record's name to one of them")

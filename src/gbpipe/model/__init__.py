@@ -26,7 +26,7 @@ analyse, design_outputs, Identifiability
     Identifiability from the Jacobian; which added output would separate the parameters.
 jackknife_intervals
     95 % intervals from a delete-one-band jackknife over frequency (model error).
-fit_data, fit_dataset, parameter_unit
+fit_data, fit_dataset, parameter_unit, assessable_band
     The fit stage: identified FRFs to fit (band, predicted identifiable band, weights),
     and the stage's dataset (rule ``fit``).
 
@@ -41,7 +41,7 @@ from gbpipe.model.assembly import bench_ss, gearbox_ss
 from gbpipe.model.drivetrain import bench_mechanism, gearbox_mechanism
 from gbpipe.model.fit import FitResult, fit_parameters
 from gbpipe.model.fit_bands import jackknife_intervals
-from gbpipe.model.fit_stage import fit_data, fit_dataset, parameter_unit
+from gbpipe.model.fit_stage import assessable_band, fit_data, fit_dataset, parameter_unit
 from gbpipe.model.frf import Pairing, pairing_frf
 from gbpipe.model.frf_data import FrfData, sigma_from_bounds, sigma_from_coherence
 from gbpipe.model.identifiability import Identifiability, analyse, design_outputs
@@ -56,5 +56,5 @@ __all__ = [
     "bench_mechanism", "model_datasets", "Pairing", "pairing_frf", "FrfData",
     "sigma_from_coherence", "sigma_from_bounds", "fit_parameters", "FitResult",
     "Identifiability", "analyse", "design_outputs", "fit_data", "fit_dataset",
-    "parameter_unit", "jackknife_intervals",
+    "parameter_unit", "jackknife_intervals", "assessable_band",
 ]

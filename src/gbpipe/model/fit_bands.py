@@ -67,6 +67,12 @@ def jackknife_intervals(result: FitResult, data: Sequence[FrfData], n_bands: int
         raise DataError("fit jackknife", f"{n_bands} bands over {f_fit.size} fitted "
                                          "frequencies: use at least 3 bands, at most one "
                                          "per frequency")
+    ident = result.identified
+    if not ident.any():
+        return result       # nothing has an interval to widen
+    # only the identified parameters move in the refits: the others stay where the fit
+    # put them (their prior, or the point that goes with a held partner)
+    free = [p for p, ok in zip(result.free, ident, strict=True) if ok]
     edges = np.quantile(np.log(f_fit), np.linspace(0.0, 1.0, n_bands + 1))
     delay = bool(fit_kwargs.get("delay", False))
     kwargs = {k: v for k, v in fit_kwargs.items()
@@ -80,16 +86,16 @@ def jackknife_intervals(result: FitResult, data: Sequence[FrfData], n_bands: int
             if np.isfinite(g).any():
                 kept.append(FrfData(d.pairing, d.f_hz, g, d.sigma))
         # one local run from the optimum: the band's absence moves it, not a new search
-        r = fit_parameters(result.config, kept, result.free, n_starts=1, n_global=0,
-                           **kwargs)
+        r = fit_parameters(result.config, kept, free, n_starts=1, n_global=0, **kwargs)
         estimates.append(np.append(np.log(r.value), r.delay))
     theta = np.array(estimates)
     sd = np.sqrt((n_bands - 1) / n_bands * np.sum((theta - theta.mean(axis=0)) ** 2, axis=0))
     q = float(student_t.ppf(0.975, n_bands - 1))
-    ident = result.identified
     value = result.value
     fisher_half = np.log(result.interval[:, 1] / value)          # Z95 · σ_θ (NaN if none)
-    half = np.where(ident, np.fmax(q * sd[:-1], fisher_half), np.nan)
+    jack = np.full(value.size, np.nan)
+    jack[ident] = q * sd[:-1]
+    half = np.where(ident, np.fmax(jack, fisher_half), np.nan)
     interval = value[:, None] * np.exp(np.outer(half, [-1.0, 1.0]))
     delay_interval = result.delay_interval
     if delay and np.isfinite(delay_interval).all():

@@ -24,7 +24,8 @@ from gbpipe.model.frf import MOTOR_INPUTS, Pairing, pairing_frf
 from gbpipe.model.frf_data import FrfData, sigma_from_bounds
 from gbpipe.model.identifiability import design_outputs
 
-__all__ = ["fit_data", "fit_dataset", "parameter_unit", "WEIGHTS", "CANDIDATE_OUTPUTS"]
+__all__ = ["fit_data", "fit_dataset", "parameter_unit", "assessable_band", "WEIGHTS",
+           "CANDIDATE_OUTPUTS"]
 
 log = logging.getLogger(__name__)
 
@@ -62,6 +63,23 @@ def _model_index(identified: xr.Dataset, pairing: str, version: str) -> int:
     return int(hit[0])
 
 
+def assessable_band(identified: xr.Dataset, version: str) -> xr.DataArray:
+    """Where a bench record's models can be judged: per pairing, the frequencies at which
+    the nonparametric FRF of the data is coherent (``assessable`` of the identify stage).
+
+    A bench record has no design step (its excitation is not the config's), so this mask
+    stands in for the predicted identifiable band of :func:`fit_data`.
+    """
+    rows = np.nonzero(identified.version.values == version)[0]
+    if rows.size == 0:
+        raise DataError(f"identified models ({identified.attrs.get('test', '?')})",
+                        f"no model of version {version}: identify it (identify.versions)")
+    sub = identified.isel(model=rows)
+    return xr.DataArray(sub.assessable.values.astype(bool), dims=("pairing", "frequency"),
+                        coords={"pairing": sub.pairing.values,
+                                "frequency": identified.frequency.values})
+
+
 def fit_data(identified: xr.Dataset, identifiable: xr.DataArray, pairings: Sequence[Pairing],
              version: str, band: Sequence[float], weight: str) -> list[FrfData]:
     """The identified FRFs to fit, masked to the band and the predicted identifiable band.
@@ -71,7 +89,8 @@ def fit_data(identified: xr.Dataset, identifiable: xr.DataArray, pairings: Seque
     identified : xarray.Dataset
         An identify output (``frf_identified_*``, ``frf_identified_{lower,upper}_db``).
     identifiable : xarray.DataArray
-        The design step's ``identifiable`` (pairing, frequency) on the same grid.
+        The design step's ``identifiable`` (pairing, frequency) on the same grid, or for a
+        bench record :func:`assessable_band`.
     pairings : sequence of Pairing
         The pairings to fit.
     version : str
@@ -180,9 +199,14 @@ def fit_dataset(result: FitResult, data: Sequence[FrfData], prior_cfg: Mapping[s
     fitted = np.stack([d.mask.any(axis=(1, 2)) for d in data])
     if result.delay:    # the fitted model as the data see it: with the fitted delay
         g_fit = g_fit * np.exp(-2j * np.pi * f * result.delay)[None, :, None, None]
+    # design help from the fit's own information (its frequencies, weights and noise
+    # scale; the delay held), each candidate added at the fitted data's typical noise
+    n = len(result.free)
+    w, v = np.linalg.eigh(result.identifiability.fisher[:n, :n])
     design = design_outputs(result.config, result.free, pairings, _candidates(data), f,
                             sigma=max(result.noise_scale * float(np.median(
-                                [np.median(1 / d.weight) for d in data])), 1e-6))
+                                [np.median(1 / d.weight) for d in data])), 1e-6),
+                            base=(v * np.sqrt(np.clip(w, 0.0, None))).T)
     par = result.free
     pdim, fdim = ("parameter",), ("pairing", "frequency", "output", "input")
     units = [parameter_unit(p) for p in par]

@@ -201,7 +201,8 @@ def analyse(jac: np.ndarray, names: Sequence[str], noise_scale: float = 1.0,
 
 def design_outputs(cfg: Mapping[str, Any], free: Sequence[str],
                    pairings: Sequence[Pairing], candidates: Sequence[Pairing],
-                   f_hz: Any, sigma: float = 0.05, **kwargs: Any) -> list[dict[str, Any]]:
+                   f_hz: Any, sigma: float = 0.05, base: np.ndarray | None = None,
+                   **kwargs: Any) -> list[dict[str, Any]]:
     """Which added output (sensor or excitation) would make the free parameters identifiable.
 
     Parameters
@@ -219,6 +220,10 @@ def design_outputs(cfg: Mapping[str, Any], free: Sequence[str],
         Frequency grid [Hz] of every pairing.
     sigma : float, default 0.05
         Standard deviation of the log-magnitude [Np] and phase [rad] of each FRF value.
+    base : ndarray, shape (m, n), optional
+        The present data's Jacobian, already divided by its noise (any ``R`` with ``RᵀR``
+        its Fisher information, e.g. a fit's): used instead of ``pairings`` on ``f_hz``,
+        so the first row is what the fit itself determined.
     **kwargs
         ``rtol``, ``max_sd``, ``involvement`` of :func:`analyse`.
 
@@ -232,12 +237,14 @@ def design_outputs(cfg: Mapping[str, Any], free: Sequence[str],
     free_p = FreeParameters.from_config(cfg, free)
     f = np.asarray(f_hz, dtype=float)
     theta0 = np.zeros(len(free_p.paths))
-    base = log_jacobian(free_p.response(list(pairings), [f] * len(pairings)), theta0)
+    if base is None:
+        base = log_jacobian(free_p.response(list(pairings), [f] * len(pairings)),
+                            theta0) / sigma
     rows = []
     for extra in [None, *candidates]:
         jac = base if extra is None else np.vstack(
-            [base, log_jacobian(free_p.response([extra], [f]), theta0)])
-        ident = analyse(jac / sigma, free_p.paths, **kwargs)
+            [base, log_jacobian(free_p.response([extra], [f]), theta0) / sigma])
+        ident = analyse(jac, free_p.paths, **kwargs)
         rows.append({"added": None if extra is None else extra.name, "rank": ident.rank,
                      "identifiable": [p for p, fl in zip(free_p.paths, ident.flagged,
                                                          strict=True) if not fl],
