@@ -69,7 +69,12 @@ rule figures_fit:
         nc=rules.fit.output.nc,
         code=code("figures_fit.py"),
     output:
-        **figure_outputs("fit_{record}", "Physical fit", name="fig_fit"),
+        # the report's caption is a template (Snakemake does not expand wildcards in a
+        # caption path); the run's numbers are in the caption file the rule writes
+        fig_fit_png=report(f"{RESULTS}/figures/fig_fit_{{record}}.png",
+                           caption="../report/fig_fit.rst", category="Physical fit"),
+        fig_fit_pdf=f"{RESULTS}/figures/fig_fit_{{record}}.pdf",
+        fig_fit_caption=f"{RESULTS}/report/fig_fit_{{record}}.rst",
     log:
         f"{RESULTS}/logs/figures_fit/{{record}}.log",
     script:

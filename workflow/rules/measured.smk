@@ -143,7 +143,8 @@ rule figures_measured:
         coherence_min=config["identify"]["nonparametric"]["coherence_min"],
     output:
         png=report(f"{RESULTS}/figures/fig_measured_{{record}}.png",
-                   caption=f"../../{RESULTS}/report/fig_measured_{{record}}.rst",
+                   # a template: Snakemake does not expand wildcards in a caption path
+                   caption="../report/fig_measured.rst",
                    category="Bench records"),
         pdf=f"{RESULTS}/figures/fig_measured_{{record}}.pdf",
         caption=f"{RESULTS}/report/fig_measured_{{record}}.rst",

@@ -102,6 +102,15 @@ def derive(cfg: dict[str, Any], order_bound: Callable[[Mapping[str, Any]], int],
         _fill(best, key, value, ("identify", "best"), derived)
     _fill(cfg["fit"], "pairings", [p["name"] for p in idc["pairings"]], ("fit",), derived)
     _fill(cfg["fit"], "band", [idc["frf"]["f_min"], idc["frf"]["f_max"]], ("fit",), derived)
+    # fit the first identified designed test (its excitation reaches the torsional modes)
+    # with the measured-like data after harmonic removal, when they are identified
+    designed_names = [d["name"] for d in cfg["campaign"]["designed"]]
+    designed_ids = [t for t in idc["tests"] if t in designed_names]
+    _fill(cfg["fit"], "records", [] if cfg["measured"] or not designed_ids
+          else [f"{designed_ids[0]}_{idc['profiles'][0]}"], ("fit",), derived)
+    _fill(cfg["fit"], "version", next((v for v in ("regression", "tsa", "raw", "clean")
+                                       if v in idc["versions"]), idc["versions"][0]),
+          ("fit",), derived)
     if "max_order" not in idc:
         _fill(idc, "max_order", order_bound(cfg), ("identify",), derived)
     if idc["order"] == "model":
