@@ -120,7 +120,8 @@ def test_report_renders_every_figure_in_a_browser(ci_run, chromium, tmp_path):
         page = browser.new_page(viewport={"width": 1400, "height": 900})
         page.goto(report.as_uri())
         categories = [c.strip() for c in page.locator("body").inner_text().split("\n")]
-        for cat in ("Model", "Test campaigns", "Harmonic removal", "Identification"):
+        for cat in ("Model", "Test campaigns", "Harmonic removal", "Identification",
+                    "Physical fit"):
             if cat not in categories:
                 continue
             page.goto(report.as_uri())
