@@ -83,7 +83,7 @@ def main() -> None:
         print(f"seed {seed}: errors [%] "
               + " ".join(f"{p}={e * 100:+.2f}{'' if c else '(not covered)'}" for p, e, c in
                          zip(ds.parameter.values[ident], err[ident], cov[ident], strict=True))
-              + f"; unidentifiable: {list(ds.parameter.values[~ident])}; delay "
+              + f"; unidentifiable: {[str(p) for p in ds.parameter.values[~ident]]}; delay "
               f"{float(ds.delay) * 1e3:.4f} ms; fit job {job_s:.1f} s", flush=True)
     e, c = np.concatenate(errors), np.concatenate(covered)
     print(f"\n{args.seeds} seeds, version {args.version}: largest error "
