@@ -186,9 +186,10 @@ def fit_dataset(result: FitResult, data: Sequence[FrfData], prior_cfg: Mapping[s
         return out
 
     # the data on the whole grid (NaN marks what the fit left out: keep it for the figure)
+    rows = [_model_index(identified, p.name, version) for p in pairings]
     full, lower, upper = [], [], []
-    for d in data:
-        m = identified.isel(model=_model_index(identified, d.pairing.name, version))
+    for d, row in zip(data, rows, strict=True):
+        m = identified.isel(model=row)
         o, i = len(d.pairing.outputs), len(d.pairing.inputs)
         full.append((m.frf_identified_real + 1j * m.frf_identified_imag).values[:, :o, :i])
         lower.append(m.frf_identified_lower_db.values[:, :o, :i])
@@ -277,9 +278,8 @@ def fit_dataset(result: FitResult, data: Sequence[FrfData], prior_cfg: Mapping[s
             "frequency": var(("frequency",), f, "Hz", "frequency"),
             "output": var(("output",), np.arange(no), "1", "output index"),
             "input": var(("input",), np.arange(ni), "1", "input index"),
-            "frf_unit": var(("pairing",), np.array([str(identified.frf_unit.values[
-                _model_index(identified, p.name, version)]) for p in pairings]), "1",
-                "unit of each pairing's FRF"),
+            "frf_unit": var(("pairing",), identified.frf_unit.values[rows].astype(str), "1",
+                            "unit of each pairing's FRF"),
             "candidate": var(("candidate",), np.array(
                 ["(as fitted)" if r["added"] is None else r["added"] for r in design]), "1",
                 "output added by the design help (first: none)"),
