@@ -11,6 +11,7 @@ from gbpipe.simulate.profiles import TESTS
 # workflow/lib holds the workflow's own helpers (not part of the gbpipe library)
 sys.path.insert(0, f"{workflow.basedir}/workflow/lib")
 import codedeps
+import jobresources
 
 min_version("9.0")
 
@@ -18,30 +19,19 @@ min_version("9.0")
 configfile: "config/config.yaml"
 
 
-# JSON-schema validation, then the checks a schema cannot make (stage counts, stability);
-# the merged, type-coerced config replaces Snakemake's before any rule is built.
-config.update(gbpipe.config.validate(config))
+# A study (`runs:`, a list of overlays) becomes one Snakemake module per run, each this
+# same Snakefile with its own validated config and results folder (workflow/rules/runs.smk).
+RUNS = gbpipe.config.runs(config)
+if not RUNS:
+    # JSON-schema validation, then the checks a schema cannot make (stage counts,
+    # stability); the merged, type-coerced config replaces Snakemake's before any rule is
+    # built.
+    config.update(gbpipe.config.validate(config))
 
-RESULTS = "results"
+RESULTS = config.get("results", "results")
 SRC = "src"
-
-
-wildcard_constraints:
-    # every ramp test (figures 7-10 show all four) and the designed-excitation tests
-    test="|".join([*TESTS, *(d["name"] for d in config["campaign"]["designed"])]),
-    profile="square|tapered",
-
-
-include: "workflow/rules/common.smk"
-include: "workflow/rules/kinematics.smk"
-include: "workflow/rules/model.smk"
-include: "workflow/rules/simulate.smk"
-include: "workflow/rules/harmonics.smk"
-include: "workflow/rules/design.smk"
-include: "workflow/rules/identify.smk"
-include: "workflow/rules/removal.smk"
-include: "workflow/rules/measured.smk"
-include: "workflow/rules/fit.smk"
+# threads, memory and run time of every rule, measured (workflow/resources.yaml)
+DECLARED = jobresources.Declared()
 
 
 onstart:
@@ -51,7 +41,34 @@ onstart:
         print(f"removed stale temporary {stale}", file=sys.stderr)
 
 
-rule all:
-    default_target: True
-    input:
-        all_targets(),
+if RUNS:
+
+    include: "workflow/rules/runs.smk"
+
+    rule all:
+        default_target: True
+        input:
+            run_targets(),
+
+else:
+
+    wildcard_constraints:
+        # every ramp test (figures 7-10 show all four) and the designed-excitation tests
+        test="|".join([*TESTS, *(d["name"] for d in config["campaign"]["designed"])]),
+        profile="square|tapered",
+
+    include: "workflow/rules/common.smk"
+    include: "workflow/rules/kinematics.smk"
+    include: "workflow/rules/model.smk"
+    include: "workflow/rules/simulate.smk"
+    include: "workflow/rules/harmonics.smk"
+    include: "workflow/rules/design.smk"
+    include: "workflow/rules/identify.smk"
+    include: "workflow/rules/removal.smk"
+    include: "workflow/rules/measured.smk"
+    include: "workflow/rules/fit.smk"
+
+    rule all:
+        default_target: True
+        input:
+            all_targets(),

@@ -60,3 +60,26 @@ def measured_run(tmp_path_factory) -> tuple[Path, dict]:
     truth = write_campaign_files(record, work / "bench")
     snakemake(work, "--configfile", *MEASURED_CONFIGS)
     return work, {"record": record, "signals": truth, "cfg": cfg}
+
+
+#: The study of config/examples/study.yaml on top of the CI config: four gearboxes and
+#: benches; its tests ask for the kinematics and model stages of each run.
+STUDY_CONFIGS = ("config/ci.yaml", "config/examples/study.yaml")
+STUDY_RUNS = ("nominal", "planetary_parallel", "soft_coupling", "stiff_housing")
+
+
+def study_targets() -> list[str]:
+    """Per run: Table 2, the three model datasets and figures 3-5 (rule names)."""
+    return [t for name in STUDY_RUNS
+            for t in (f"results/{name}/tables/table2.csv", f"{name}_figures_model")]
+
+
+@pytest.fixture(scope="session")
+def study_run(tmp_path_factory) -> tuple[Path, str]:
+    """A copy of the repository with the study's kinematics and model stages run locally
+    (``snakemake -j2``; shared by the workflow and cluster tests), and Snakemake's log."""
+    from tests.workflow.runs import copy_repo, snakemake
+
+    work = copy_repo(tmp_path_factory.mktemp("study_run"))
+    proc = snakemake(work, "--configfile", *STUDY_CONFIGS, "--", *study_targets())
+    return work, proc.stdout + proc.stderr

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import pytest
 from slurm_local import LocalSlurm, SlurmUnavailable, install
+from slurm_runs import MEMORY
 
 #: Seconds of the install and of each start-up step, for the session's summary.
 TIMINGS: dict[str, float] = {}
@@ -34,4 +35,7 @@ def pytest_terminal_summary(terminalreporter):
         steps = ", ".join(f"{k} {v:.1f}" for k, v in TIMINGS.items())
         terminalreporter.write_line(f"local SLURM [s]: {steps}; start-up total "
                                     f"{sum(v for k, v in TIMINGS.items() if k != 'install'):.1f}")
+    if MEMORY:
+        rules = ", ".join(f"{r} {m:.0f}/{a}" for r, (m, a) in sorted(MEMORY.items()))
+        terminalreporter.write_line(f"SLURM peak/asked memory per rule [MB]: {rules}")
 

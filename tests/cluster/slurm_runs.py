@@ -17,6 +17,9 @@ PROFILE = ROOT / "profiles" / "slurm"
 #: Seconds before the executor's first status query (its default, 40 s, suits a big
 #: cluster's controller; a one-node test cluster answers at once).
 FAST_STATUS = ["--slurm-init-seconds-before-status-checks", "2"]
+#: Rule -> (largest peak memory of its SLURM jobs as sacct accounted it, Snakemake
+#: included; memory its jobs asked for) [MB]: filled by the tests, printed at the end.
+MEMORY: dict[str, tuple[float, int]] = {}
 
 
 def last_job_id(cluster: LocalSlurm) -> int:
@@ -26,28 +29,35 @@ def last_job_id(cluster: LocalSlurm) -> int:
 
 def slurm_jobs(cluster: LocalSlurm, after: int) -> dict[int, dict]:
     """Jobs with an id above ``after``, from ``sacct``: id -> rule (from the comment that
-    Snakemake's executor sets), the states of the job and of its steps, memory asked [MB].
+    Snakemake's executor sets), the states of the job and of its steps, memory asked [MB],
+    and ``rss_mb``: the sum of its steps' peak resident memory [MB] (the batch script's
+    Snakemake and the srun step with the rule's script run at once, so the sum bounds the
+    job's peak from above).
     """
     out = cluster.run("sacct", "-a", "-n", "-P", "-S", "2000-01-01", "-o",
-                      "JobIDRaw,State,ReqMem,Comment").stdout
-    jobs: dict[int, dict] = defaultdict(lambda: {"states": []})
+                      "JobIDRaw,State,ReqMem,MaxRSS,Comment").stdout
+    jobs: dict[int, dict] = defaultdict(lambda: {"states": [], "rss_mb": 0.0})
     for line in out.splitlines():
-        jobid, state, reqmem, comment = line.split("|", 3)
+        jobid, state, reqmem, maxrss, comment = line.split("|", 4)
         main = int(jobid.split(".")[0])
         if main <= after:
             continue
         jobs[main]["states"].append(state.split()[0])  # "CANCELLED by 0" -> CANCELLED
+        if maxrss:
+            jobs[main]["rss_mb"] += _megabytes(maxrss, "K")
         if "." not in jobid:
             rule = re.match(r"rule_(\w+?)(?:_wildcards_.*)?$", comment)
             jobs[main]["rule"] = rule.group(1) if rule else comment
-            jobs[main]["mem_mb"] = _megabytes(reqmem)
+            jobs[main]["mem_mb"] = round(_megabytes(reqmem))
     return dict(jobs)
 
 
-def _megabytes(reqmem: str) -> int:
-    # sacct prints e.g. 2000M or 4G (22.05: no trailing n/c)
-    value, unit = float(reqmem[:-1]), reqmem[-1]
-    return round(value * {"M": 1, "G": 1024, "T": 1024**2}[unit])
+def _megabytes(amount: str, bare: str = "M") -> float:
+    # sacct prints e.g. 2000M or 4G (22.05: no trailing n/c), MaxRSS e.g. 123456K or 0
+    if amount[-1].isdigit():
+        amount += bare
+    value, unit = float(amount[:-1]), amount[-1]
+    return value * {"K": 1 / 1024, "M": 1, "G": 1024, "T": 1024**2}[unit]
 
 
 def snakemake_on_slurm(cluster: LocalSlurm, work: Path, env: dict[str, str], *args: str,

@@ -1,23 +1,34 @@
-"""The CI workflow through the repository's SLURM profile on a real local SLURM.
+"""The workflow through the repository's SLURM profile on a real local SLURM.
 
 ``snakemake --profile profiles/slurm --configfile config/ci.yaml`` runs in a fresh copy of
 the repository against the one-node cluster of conftest.py. Every job of the plan must
 appear in SLURM's accounting (sacct, fed by slurmdbd) as a completed SLURM job of its
-rule, and the results must equal the local run's (``ci_run``, tests/workflow): every CSV
-table byte for byte, every NetCDF variable and coordinate exactly (values, dims, names;
-attributes such as the creation time differ by nature).
+rule, on its first attempt, having asked for its rule's declared memory
+(workflow/resources.yaml) and used less; and the results must equal the local run's
+(``ci_run``): every CSV table byte for byte, every NetCDF variable and coordinate exactly
+(values, dims, names; attributes such as the creation time differ by nature).
+
+The study of config/examples/study.yaml (four gearboxes and benches, one results folder
+each) runs the same way and must equal its local run (``study_run``).
 """
 
 from __future__ import annotations
 
 import re
+import sys
 from collections import Counter
 from pathlib import Path
 
 import xarray as xr
-from slurm_runs import last_job_id, slurm_jobs, snakemake_on_slurm
+from slurm_runs import MEMORY, last_job_id, slurm_jobs, snakemake_on_slurm
 
+from tests.conftest import ROOT, STUDY_CONFIGS, study_targets
 from tests.workflow.runs import copy_repo, snakemake_env
+
+sys.path.insert(0, str(ROOT / "workflow" / "lib"))
+import jobresources  # noqa: E402  (the workflow's own helpers)
+
+DECLARED = jobresources.Declared()
 
 
 def executed_jobs(log: str) -> Counter:
@@ -32,27 +43,61 @@ def _relative(root: Path, pattern: str) -> list[Path]:
     return sorted(p.relative_to(root) for p in (root / "results").glob(pattern))
 
 
+def _assert_jobs_as_planned_and_declared(jobs: list[dict], log: str, rule_of) -> None:
+    """One completed SLURM job per planned job (so none was retried), each asking for its
+    rule's declared memory and time, and using less memory than it asked for."""
+    assert Counter(j["rule"] for j in jobs) == executed_jobs(log)
+    assert {s for j in jobs for s in j["states"]} == {"COMPLETED"}
+    asked = {(j["rule"], j["mem_mb"]) for j in jobs}
+    assert asked == {(j["rule"], DECLARED.mem_mb(rule_of(j["rule"]))) for j in jobs}
+    over = [(j["rule"], round(j["rss_mb"]), j["mem_mb"]) for j in jobs
+            if not 0 < j["rss_mb"] <= j["mem_mb"]]
+    assert over == []
+    for j in jobs:
+        rule = rule_of(j["rule"])
+        peak = max(j["rss_mb"], MEMORY.get(rule, (0.0, 0))[0])
+        MEMORY[rule] = (peak, j["mem_mb"])
+
+
+def _assert_same_results(local: Path, remote: Path, tables: str, min_netcdf: int) -> None:
+    names = _relative(local, tables)
+    assert names and names == _relative(remote, tables)
+    differ = [str(t) for t in names if (local / t).read_bytes() != (remote / t).read_bytes()]
+    assert differ == []
+    netcdf = _relative(local, "**/*.nc")
+    assert len(netcdf) >= min_netcdf and netcdf == _relative(remote, "**/*.nc")
+    for path in netcdf:
+        with xr.open_dataset(local / path) as a, xr.open_dataset(remote / path) as b:
+            xr.testing.assert_equal(b, a)
+
+
 def test_ci_workflow_on_slurm_runs_every_job_as_slurm_job_and_matches_local_run(
         slurm, ci_run, tmp_path_factory):
     work = copy_repo(tmp_path_factory.mktemp("slurm_run"))
     before = last_job_id(slurm)
     proc = snakemake_on_slurm(slurm, work, snakemake_env(work), "--configfile",
                               "config/ci.yaml")
+    jobs = list(slurm_jobs(slurm, after=before).values())
+    _assert_jobs_as_planned_and_declared(jobs, proc.stdout + proc.stderr, lambda r: r)
+    _assert_same_results(ci_run, work, "tables/*.csv", min_netcdf=20)
 
-    jobs = slurm_jobs(slurm, after=before).values()
-    assert Counter(j["rule"] for j in jobs) == executed_jobs(proc.stdout + proc.stderr)
-    assert {s for j in jobs for s in j["states"]} == {"COMPLETED"}
-    # the rules' own memory (e.g. sweep: 4000 MB) reached SLURM, not only the default
-    assert {j["mem_mb"] for j in jobs if j["rule"] == "sweep"} == {4000}
 
-    tables = _relative(ci_run, "tables/*.csv")
-    assert tables and tables == _relative(work, "tables/*.csv")
-    differ = [str(t) for t in tables
-              if (ci_run / t).read_bytes() != (work / t).read_bytes()]
-    assert differ == []
+def test_a_study_of_four_gearboxes_on_slurm_matches_its_local_run(
+        slurm, study_run, tmp_path_factory):
+    local, _ = study_run
+    work = copy_repo(tmp_path_factory.mktemp("slurm_study"))
+    before = last_job_id(slurm)
+    proc = snakemake_on_slurm(slurm, work, snakemake_env(work), "--configfile",
+                              *STUDY_CONFIGS, "--", *study_targets())
+    jobs = list(slurm_jobs(slurm, after=before).values())
+    runs = sorted(p.name for p in (local / "results").iterdir())
+    assert len(runs) == 4
 
-    netcdf = _relative(ci_run, "**/*.nc")
-    assert len(netcdf) >= 20 and netcdf == _relative(work, "**/*.nc")
-    for path in netcdf:
-        with xr.open_dataset(ci_run / path) as local, xr.open_dataset(work / path) as remote:
-            xr.testing.assert_equal(remote, local)
+    def rule_of(name: str) -> str:   # <run>_<rule> -> <rule>
+        run = next(r for r in runs if name.startswith(f"{r}_"))
+        return name.removeprefix(f"{run}_")
+
+    _assert_jobs_as_planned_and_declared(jobs, proc.stdout + proc.stderr, rule_of)
+    assert {j["rule"] for j in jobs} == {f"{r}_{x}" for r in runs
+                                         for x in ("kinematics", "model", "figures_model")}
+    _assert_same_results(local, work, "*/tables/*.csv", min_netcdf=16)

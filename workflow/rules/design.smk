@@ -40,6 +40,9 @@ rule design:
         f"{RESULTS}/logs/design.log",
     benchmark:
         f"{RESULTS}/benchmarks/design.tsv"
+    threads: DECLARED.threads("design")
+    resources:
+        **DECLARED.resources("design"),
     script:
         "../scripts/design.py"
 
@@ -58,5 +61,10 @@ rule figures_design:
         **figure_outputs("design", "Identification", name="fig_design"),
     log:
         f"{RESULTS}/logs/figures_design.log",
+    benchmark:
+        f"{RESULTS}/benchmarks/figures_design.tsv"
+    threads: DECLARED.threads("figures_design")
+    resources:
+        **DECLARED.resources("figures_design"),
     script:
         "../scripts/figures_design.py"

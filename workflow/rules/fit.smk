@@ -55,6 +55,9 @@ rule fit:
         f"{RESULTS}/logs/fit/{{record}}.log",
     benchmark:
         f"{RESULTS}/benchmarks/fit/{{record}}.tsv"
+    threads: DECLARED.threads("fit")
+    resources:
+        **DECLARED.resources("fit"),
     script:
         "../scripts/fit.py"
 
@@ -77,5 +80,10 @@ rule figures_fit:
         fig_fit_caption=f"{RESULTS}/report/fig_fit_{{record}}.rst",
     log:
         f"{RESULTS}/logs/figures_fit/{{record}}.log",
+    benchmark:
+        f"{RESULTS}/benchmarks/figures_fit/{{record}}.tsv"
+    threads: DECLARED.threads("figures_fit")
+    resources:
+        **DECLARED.resources("figures_fit"),
     script:
         "../scripts/figures_fit.py"

@@ -18,6 +18,9 @@ rule spectra:
         f"{RESULTS}/logs/spectra.log",
     benchmark:
         f"{RESULTS}/benchmarks/spectra.tsv"
+    threads: DECLARED.threads("spectra")
+    resources:
+        **DECLARED.resources("spectra"),
     script:
         "../scripts/spectra.py"
 
@@ -46,8 +49,9 @@ rule tsa:
         f"{RESULTS}/logs/tsa/{{variant}}.log",
     benchmark:
         f"{RESULTS}/benchmarks/tsa/{{variant}}.tsv"
+    threads: DECLARED.threads("tsa")
     resources:
-        mem_mb=lambda wildcards, attempt: 3000 * attempt,  # a retry asks for more
+        **DECLARED.resources("tsa"),
     script:
         "../scripts/tsa.py"
 
@@ -68,5 +72,10 @@ rule figures_harmonics:
         **figure_outputs("mode_band", "Harmonic removal", name="mode_band"),
     log:
         f"{RESULTS}/logs/figures_harmonics.log",
+    benchmark:
+        f"{RESULTS}/benchmarks/figures_harmonics.tsv"
+    threads: DECLARED.threads("figures_harmonics")
+    resources:
+        **DECLARED.resources("figures_harmonics"),
     script:
         "../scripts/figures_harmonics.py"

@@ -59,8 +59,9 @@ rule tsa_tests:
         f"{RESULTS}/logs/tsa_tests/{{test}}_{{profile}}.log",
     benchmark:
         f"{RESULTS}/benchmarks/tsa_tests/{{test}}_{{profile}}.tsv"
+    threads: DECLARED.threads("tsa_tests")
     resources:
-        mem_mb=lambda wildcards, attempt: 2000 * attempt,  # a retry asks for more
+        **DECLARED.resources("tsa_tests"),
     script:
         "../scripts/tsa_tests.py"
 
@@ -94,8 +95,9 @@ rule identify:
         f"{RESULTS}/logs/identify/{{test}}_{{profile}}_{{method}}.log",
     benchmark:
         f"{RESULTS}/benchmarks/identify/{{test}}_{{profile}}_{{method}}.tsv"
+    threads: DECLARED.threads("identify")
     resources:
-        mem_mb=lambda wildcards, attempt: 2000 * attempt,  # a retry asks for more
+        **DECLARED.resources("identify"),
     script:
         "../scripts/identify.py"
 
@@ -112,6 +114,11 @@ rule identification_table:
         table=f"{RESULTS}/tables/identification.csv",
     log:
         f"{RESULTS}/logs/identification_table.log",
+    benchmark:
+        f"{RESULTS}/benchmarks/identification_table.tsv"
+    threads: DECLARED.threads("identification_table")
+    resources:
+        **DECLARED.resources("identification_table"),
     script:
         "../scripts/identification_table.py"
 
@@ -133,5 +140,10 @@ rule figures_identify:
         bandwidth_caption=_bandwidth_figure()[2],
     log:
         f"{RESULTS}/logs/figures_identify.log",
+    benchmark:
+        f"{RESULTS}/benchmarks/figures_identify.tsv"
+    threads: DECLARED.threads("figures_identify")
+    resources:
+        **DECLARED.resources("figures_identify"),
     script:
         "../scripts/figures_identify.py"

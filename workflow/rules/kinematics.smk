@@ -13,5 +13,8 @@ rule kinematics:
         f"{RESULTS}/logs/kinematics.log",
     benchmark:
         f"{RESULTS}/benchmarks/kinematics.tsv"
+    threads: DECLARED.threads("kinematics")
+    resources:
+        **DECLARED.resources("kinematics"),
     script:
         "../scripts/kinematics.py"

@@ -53,6 +53,9 @@ rule measured:
         f"{RESULTS}/logs/measured/{{record}}.log",
     benchmark:
         f"{RESULTS}/benchmarks/measured/{{record}}.tsv"
+    threads: DECLARED.threads("measured")
+    resources:
+        **DECLARED.resources("measured"),
     script:
         "../scripts/measured.py"
 
@@ -70,6 +73,11 @@ rule spectra_measured:
         nc=f"{RESULTS}/spectra/measured/{{record}}.nc",
     log:
         f"{RESULTS}/logs/spectra/measured/{{record}}.log",
+    benchmark:
+        f"{RESULTS}/benchmarks/spectra_measured/{{record}}.tsv"
+    threads: DECLARED.threads("spectra_measured")
+    resources:
+        **DECLARED.resources("spectra_measured"),
     script:
         "../scripts/spectra.py"
 
@@ -90,6 +98,11 @@ rule tsa_measured:
         nc=f"{RESULTS}/tsa/measured/{{record}}.nc",
     log:
         f"{RESULTS}/logs/tsa/measured/{{record}}.log",
+    benchmark:
+        f"{RESULTS}/benchmarks/tsa_measured/{{record}}.tsv"
+    threads: DECLARED.threads("tsa_measured")
+    resources:
+        **DECLARED.resources("tsa_measured"),
     script:
         "../scripts/tsa_tests.py"
 
@@ -114,6 +127,11 @@ rule identify_measured:
         nc=f"{RESULTS}/identify/measured/{{record}}_{{method}}.nc",
     log:
         f"{RESULTS}/logs/identify/measured/{{record}}_{{method}}.log",
+    benchmark:
+        f"{RESULTS}/benchmarks/identify_measured/{{record}}_{{method}}.tsv"
+    threads: DECLARED.threads("identify_measured")
+    resources:
+        **DECLARED.resources("identify_measured"),
     script:
         "../scripts/identify_measured.py"
 
@@ -128,6 +146,11 @@ rule identification_table_measured:
         table=f"{RESULTS}/tables/identification_measured.csv",
     log:
         f"{RESULTS}/logs/identification_table_measured.log",
+    benchmark:
+        f"{RESULTS}/benchmarks/identification_table_measured.tsv"
+    threads: DECLARED.threads("identification_table_measured")
+    resources:
+        **DECLARED.resources("identification_table_measured"),
     script:
         "../scripts/identification_table.py"
 
@@ -150,5 +173,10 @@ rule figures_measured:
         caption=f"{RESULTS}/report/fig_measured_{{record}}.rst",
     log:
         f"{RESULTS}/logs/figures_measured/{{record}}.log",
+    benchmark:
+        f"{RESULTS}/benchmarks/figures_measured/{{record}}.tsv"
+    threads: DECLARED.threads("figures_measured")
+    resources:
+        **DECLARED.resources("figures_measured"),
     script:
         "../scripts/figures_measured.py"

@@ -16,6 +16,9 @@ rule model:
         f"{RESULTS}/logs/model.log",
     benchmark:
         f"{RESULTS}/benchmarks/model.tsv"
+    threads: DECLARED.threads("model")
+    resources:
+        **DECLARED.resources("model"),
     script:
         "../scripts/model.py"
 
@@ -35,5 +38,10 @@ rule figures_model:
         **figure_outputs(5, "Model"),
     log:
         f"{RESULTS}/logs/figures_model.log",
+    benchmark:
+        f"{RESULTS}/benchmarks/figures_model.tsv"
+    threads: DECLARED.threads("figures_model")
+    resources:
+        **DECLARED.resources("figures_model"),
     script:
         "../scripts/figures_model.py"

@@ -33,8 +33,9 @@ rule sweep_random:
         f"{RESULTS}/logs/sweep_random.log",
     benchmark:
         f"{RESULTS}/benchmarks/sweep_random.tsv"
+    threads: DECLARED.threads("sweep_random")
     resources:
-        mem_mb=lambda wildcards, attempt: 4000 * attempt,  # a retry asks for more
+        **DECLARED.resources("sweep_random"),
     script:
         "../scripts/sweep.py"
 
@@ -54,8 +55,9 @@ rule simulate_random:
         f"{RESULTS}/logs/simulate_random/{{test}}_{{profile}}.log",
     benchmark:
         f"{RESULTS}/benchmarks/simulate_random/{{test}}_{{profile}}.tsv"
+    threads: DECLARED.threads("simulate_random")
     resources:
-        mem_mb=lambda wildcards, attempt: 2000 * attempt,  # a retry asks for more
+        **DECLARED.resources("simulate_random"),
     script:
         "../scripts/simulate.py"
 
@@ -87,8 +89,9 @@ rule removal:
         f"{RESULTS}/logs/removal/{{method}}.log",
     benchmark:
         f"{RESULTS}/benchmarks/removal/{{method}}.tsv"
+    threads: DECLARED.threads("removal")
     resources:
-        mem_mb=lambda wildcards, attempt: 3000 * attempt,  # a retry asks for more
+        **DECLARED.resources("removal"),
     script:
         "../scripts/removal.py"
 
@@ -105,6 +108,11 @@ rule removal_table:
         table=f"{RESULTS}/tables/removal.csv",
     log:
         f"{RESULTS}/logs/removal_table.log",
+    benchmark:
+        f"{RESULTS}/benchmarks/removal_table.tsv"
+    threads: DECLARED.threads("removal_table")
+    resources:
+        **DECLARED.resources("removal_table"),
     script:
         "../scripts/removal_table.py"
 
@@ -121,6 +129,11 @@ rule figures_removal:
         **figure_outputs("removal_tradeoff", "Harmonic removal", name="removal_tradeoff"),
     log:
         f"{RESULTS}/logs/figures_removal.log",
+    benchmark:
+        f"{RESULTS}/benchmarks/figures_removal.tsv"
+    threads: DECLARED.threads("figures_removal")
+    resources:
+        **DECLARED.resources("figures_removal"),
     script:
         "../scripts/figures_removal.py"
 
@@ -148,7 +161,8 @@ rule removal_tests:
         f"{RESULTS}/logs/removal_tests/{{method}}/{{test}}_{{profile}}.log",
     benchmark:
         f"{RESULTS}/benchmarks/removal_tests/{{method}}/{{test}}_{{profile}}.tsv"
+    threads: DECLARED.threads("removal_tests")
     resources:
-        mem_mb=lambda wildcards, attempt: 2000 * attempt,  # a retry asks for more
+        **DECLARED.resources("removal_tests"),
     script:
         "../scripts/removal_tests.py"

@@ -17,8 +17,9 @@ rule simulate:
         f"{RESULTS}/logs/simulate/{{test}}_{{profile}}.log",
     benchmark:
         f"{RESULTS}/benchmarks/simulate/{{test}}_{{profile}}.tsv"
+    threads: DECLARED.threads("simulate")
     resources:
-        mem_mb=lambda wildcards, attempt: 2000 * attempt,  # a retry asks for more
+        **DECLARED.resources("simulate"),
     script:
         "../scripts/simulate.py"
 
@@ -42,8 +43,9 @@ rule sweep:
         f"{RESULTS}/logs/sweep.log",
     benchmark:
         f"{RESULTS}/benchmarks/sweep.tsv"
+    threads: DECLARED.threads("sweep")
     resources:
-        mem_mb=lambda wildcards, attempt: 4000 * attempt,  # a retry asks for more
+        **DECLARED.resources("sweep"),
     script:
         "../scripts/sweep.py"
 
@@ -64,5 +66,10 @@ rule figures_tests:
         **figure_outputs(10, "Test campaigns"),
     log:
         f"{RESULTS}/logs/figures_tests.log",
+    benchmark:
+        f"{RESULTS}/benchmarks/figures_tests.tsv"
+    threads: DECLARED.threads("figures_tests")
+    resources:
+        **DECLARED.resources("figures_tests"),
     script:
         "../scripts/figures_tests.py"

@@ -14,6 +14,8 @@ order_bound(cfg)
     States of the bench in the identified band: the default ``identify.max_order``.
 model_signal(cfg, name)
     The bench model's name of a record signal (``fit.signals``).
+runs(cfg)
+    The validated configuration of every run of a study (``runs:``), by name.
 fit_prior(cfg)
     The validated configuration a physical fit starts from (``fit.start`` merged).
 measured_specs(cfg), min_duration(cfg)
@@ -33,8 +35,9 @@ from gbpipe.config.fit import model_signal
 from gbpipe.config.loader import fit_prior, load, merge, read_yaml, validate
 from gbpipe.config.measured import measured_specs, min_duration
 from gbpipe.config.schema_validation import SCHEMA_PATH, schema
+from gbpipe.config.study import runs
 from gbpipe.errors import ConfigError
 
 __all__ = ["load", "validate", "merge", "schema", "order_bound", "read_yaml", "Config",
            "ConfigError", "SCHEMA_PATH", "measured_specs", "min_duration", "fit_prior",
-           "model_signal"]
+           "model_signal", "runs"]
