@@ -9,8 +9,9 @@ import numpy as np
 import pytest
 from removal_signals import FAMILIES, db, inner, sweep
 
+from gbpipe.errors import DataError
 from gbpipe.harmonics import residual_joint
-from gbpipe.harmonics.removal import METHODS, family_cycles, remove_harmonics
+from gbpipe.harmonics.removal import METHODS, MULTICHANNEL, family_cycles, remove_harmonics
 from gbpipe.harmonics.removal_inputs import family_cycle
 
 
@@ -47,3 +48,30 @@ def test_unknown_method():
     assert set(METHODS) == {"tsa", "vkf", "regression", "drs", "cepstrum"}
     with pytest.raises(ValueError, match="unknown"):
         remove_harmonics("wavelet", np.zeros(10), 1.0, np.arange(3.0), FAMILIES)
+
+
+@pytest.mark.parametrize("name", sorted(METHODS))
+def test_channels_at_once_equal_each_channel_alone(name):
+    # three channels of one record (one pulse train): the harmonics with two noise
+    # levels and a scaled copy; each column's residual is the one-channel residual
+    sw = sweep(noise=0.05)
+    rng = np.random.default_rng(7)
+    x = np.column_stack([sw["x"], sw["h"] + 0.3 * rng.standard_normal(sw["x"].size),
+                         -40.0 * sw["x"]])
+    r = remove_harmonics(name, x, sw["fs"], sw["pulses"], FAMILIES)
+    assert r.shape == x.shape
+    for j in range(x.shape[1]):
+        alone = remove_harmonics(name, x[:, j], sw["fs"], sw["pulses"], FAMILIES)
+        if name in MULTICHANNEL:  # shared factor: equal to rounding of the BLAS order
+            scale = np.max(np.abs(x[:, j]))
+            np.testing.assert_allclose(r[:, j], alone, rtol=0, atol=1e-11 * scale)
+        else:  # the columns one by one
+            np.testing.assert_array_equal(r[:, j], alone)
+
+
+def test_a_bad_channel_is_named():
+    sw = sweep(noise=0.05)
+    x = np.column_stack([sw["x"], sw["x"]])
+    x[1234, 1] = np.nan
+    with pytest.raises(DataError, match=r"x\[:, 1\].*first at index 1234"):
+        remove_harmonics("regression", x, sw["fs"], sw["pulses"], FAMILIES)

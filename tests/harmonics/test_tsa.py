@@ -10,7 +10,7 @@ import pytest
 from harmonic_sweeps import CARRIER, FS, HSS_ORDERS, MESH, MESH_ORDERS, db, line_power, make_sweep
 
 from gbpipe.errors import DataError, PulseError
-from gbpipe.harmonics import tsa
+from gbpipe.harmonics import joint, tsa
 
 
 # --------------------------------------------------------------------------- removal
@@ -84,7 +84,7 @@ def test_joint_removes_both_families_where_cascade_does_not(clean):
     p = clean["pulses"]
     results = {}
     for mode in ("cascade", "joint"):
-        r, info = tsa.residual_joint(x, FS, p, [1, Fraction(MESH).limit_denominator(10**6)],
+        r, info = joint.residual_joint(x, FS, p, [1, Fraction(MESH).limit_denominator(10**6)],
                                      mode=mode, return_info=True)
         m = info.valid
         # Noise-free: everything left is leftover of the two families.
@@ -97,10 +97,35 @@ def test_joint_removes_both_families_where_cascade_does_not(clean):
 
 def test_joint_converges_and_reports(clean):
     x = clean["hss"] + clean["mesh"]
-    r, info = tsa.residual_joint(x, FS, clean["pulses"], [1, MESH], return_info=True)
+    r, info = joint.residual_joint(x, FS, clean["pulses"], [1, MESH], return_info=True)
     assert info.converged and 1 < info.iterations <= 50
     np.testing.assert_allclose(x - info.synchronous[0] - info.synchronous[1], r, atol=1e-9)
     assert info.history[-1] < 3e-3
+
+
+def test_joint_sliding_that_does_not_contract_stops_at_its_best_pass(clean, monkeypatch):
+    # A sliding average is no projection: on HSS + mesh with 4-cycle blocks and the
+    # carrier cycle, backfitting contracts for 4 passes and then grows. The pass of
+    # smallest change is returned, with a warning, and equals a run stopped there.
+    x = clean["hss"] + clean["mesh"]
+    args = (x, FS, clean["pulses"], [1, CARRIER])
+    kw = dict(n_cycles=4, averaging="sliding", return_info=True)
+    with pytest.warns(UserWarning, match="do not contract"):
+        r, info = joint.residual_joint(*args, max_iter=50, **kw)
+    h = np.asarray(info.history)
+    best = int(np.argmin(h[1:])) + 2  # passes are counted from 1; pass 1 is the cascade
+    assert info.iterations == best and not info.converged
+    assert np.all(np.diff(h[best - 1:]) > 0) and len(h) == best + 3  # three growing passes
+    with pytest.warns(UserWarning, match="not converged"):
+        r_at = joint.residual_joint(*args, max_iter=best, **kw)[0]
+    np.testing.assert_array_equal(r, r_at)
+    # left to run on, it diverges: by pass 50 a pass changes the residual by more than
+    # the whole signal (and the pass of smallest change is still what comes back)
+    monkeypatch.setattr(joint, "_GROWTH_PASSES", 10**6)
+    with pytest.warns(UserWarning, match="do not contract"):
+        r_on, info_on = joint.residual_joint(*args, max_iter=50, **kw)
+    assert info_on.history[-1] > 1.0 and len(info_on.history) == 50
+    np.testing.assert_array_equal(r_on, r)
 
 
 # --------------------------------------------------------------------------- noise loss
@@ -118,11 +143,11 @@ def test_white_noise_loses_one_over_n(clean, order, n_cycles):
 
 def test_joint_white_noise_loss_and_unbiased(clean):
     w = np.random.default_rng(4).standard_normal(clean["t"].size)
-    r, info = tsa.residual_joint(w, FS, clean["pulses"], [1, MESH], return_info=True)
+    r, info = joint.residual_joint(w, FS, clean["pulses"], [1, MESH], return_info=True)
     m = info.valid
     assert db(np.mean(r[m] ** 2) / np.mean(w[m] ** 2)) == pytest.approx(db(1 - 2 / 10),
                                                                        abs=0.1)
-    ru = tsa.residual_joint(w, FS, clean["pulses"], [1, MESH], unbiased=True)
+    ru = joint.residual_joint(w, FS, clean["pulses"], [1, MESH], unbiased=True)
     assert db(np.mean(ru[m] ** 2) / np.mean(w[m] ** 2)) == pytest.approx(0.0, abs=0.1)
 
 
@@ -221,6 +246,6 @@ def test_rejects_bad_counts_and_options(sw):
     with pytest.raises(ValueError, match=r"band_limit must be in"):
         bad(sw, band_limit=1.5)
     with pytest.raises(ValueError, match=r"mode must be"):
-        tsa.residual_joint(sw["x"], FS, sw["pulses"], [1, MESH], mode="both")
+        joint.residual_joint(sw["x"], FS, sw["pulses"], [1, MESH], mode="both")
     with pytest.raises(ValueError, match=r"cycle_orders\[1\] must be > 0"):
-        tsa.residual_joint(sw["x"], FS, sw["pulses"], [1, 0.0])
+        joint.residual_joint(sw["x"], FS, sw["pulses"], [1, 0.0])

@@ -56,6 +56,7 @@ from gbpipe.harmonics.families import (
     structural_modes,
     test_families,
 )
+from gbpipe.harmonics.joint import JointInfo, residual_joint
 from gbpipe.harmonics.metrics import family_attenuation, mode_band_change, removal_metrics
 from gbpipe.harmonics.regression import residual_regression
 from gbpipe.harmonics.removal import METHODS as REMOVAL_METHODS
@@ -79,7 +80,7 @@ from gbpipe.harmonics.tacho import (
     shaft_speed,
 )
 from gbpipe.harmonics.tracking import order_amplitudes
-from gbpipe.harmonics.tsa import JointInfo, TSAInfo, residual, residual_joint, synchronous_average
+from gbpipe.harmonics.tsa import TSAInfo, residual, synchronous_average
 from gbpipe.harmonics.vkf import residual_vkf
 
 __all__ = [

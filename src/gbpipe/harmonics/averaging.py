@@ -1,7 +1,7 @@
 """One harmonic family's cycle plan: the angle grid of its cycles and their averages.
 
 A :class:`CyclePlan` holds everything about one family on one record that does not depend
-on the signal values, so that :func:`gbpipe.harmonics.tsa.residual_joint` can apply the same
+on the signal values, so that :func:`gbpipe.harmonics.joint.residual_joint` can apply the same
 family many times. The steps (all vectorised, O(record length) time and memory):
 
 1. Cycle coordinate ``phi = cycle_order * angle / (2 pi)``, 0 at the first pulse, from the

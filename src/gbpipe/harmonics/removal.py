@@ -32,13 +32,15 @@ import numpy as np
 
 from gbpipe.harmonics.cepstrum import residual_cepstrum
 from gbpipe.harmonics.drs import residual_drs
+from gbpipe.harmonics.joint import residual_joint
 from gbpipe.harmonics.regression import residual_regression
 from gbpipe.harmonics.removal_inputs import Families, family_cycle, family_orders_checked
 from gbpipe.harmonics.tacho import AngleMethod
-from gbpipe.harmonics.tsa import residual, residual_joint
+from gbpipe.harmonics.tsa import residual
 from gbpipe.harmonics.vkf import residual_vkf
 
-__all__ = ["METHODS", "RemovalMethod", "family_cycles", "residual_tsa", "remove_harmonics"]
+__all__ = ["METHODS", "MULTICHANNEL", "RemovalMethod", "family_cycles", "residual_tsa",
+           "remove_harmonics"]
 
 #: A removal method: ``f(x, fs, pulse_times, families, pulses_per_rev=1, **params)``.
 RemovalMethod = Callable[..., np.ndarray]
@@ -90,6 +92,11 @@ METHODS: dict[str, RemovalMethod] = {
 }
 
 
+#: Methods that take the channels of one record at once, ``x`` of shape (n, channels):
+#: their work on the angle (regressors, factors) is shared by the channels.
+MULTICHANNEL = frozenset({"regression"})
+
+
 def remove_harmonics(name: str, x: np.ndarray, fs: float, pulse_times: np.ndarray,
                      families: Families, pulses_per_rev: int = 1, **params) -> np.ndarray:
     """Residual of ``x`` after removal of ``families`` by the method ``name``.
@@ -98,8 +105,9 @@ def remove_harmonics(name: str, x: np.ndarray, fs: float, pulse_times: np.ndarra
     ----------
     name : {"tsa", "vkf", "regression", "drs", "cepstrum"}
         Method (:data:`METHODS`).
-    x : array_like, shape (n,)
-        Record (any unit, e.g. N m), sample ``i`` at ``t0 + i / fs``. Not modified.
+    x : array_like, shape (n,) or (n, channels)
+        Record (any unit, e.g. N m), sample ``i`` at ``t0 + i / fs``; several channels
+        of one record (one pulse train) as columns. Not modified.
     fs : float
         Sample rate [Hz].
     pulse_times : array_like
@@ -117,8 +125,10 @@ def remove_harmonics(name: str, x: np.ndarray, fs: float, pulse_times: np.ndarra
     Returns
     -------
     numpy.ndarray
-        The residual, in the unit of ``x``; samples outside the pulse span (no angle)
-        are returned unchanged.
+        The residual, in the unit of ``x`` and of its shape; samples outside the pulse
+        span (no angle) are returned unchanged. Each channel's residual is that of the
+        channel alone (:data:`MULTICHANNEL` methods share their work, others take the
+        columns one by one).
 
     Raises
     ------
@@ -131,4 +141,9 @@ def remove_harmonics(name: str, x: np.ndarray, fs: float, pulse_times: np.ndarra
     """
     if name not in METHODS:
         raise ValueError(f"removal method {name!r} is unknown: use one of {sorted(METHODS)}")
-    return METHODS[name](x, fs, pulse_times, families, pulses_per_rev, **params)
+    xa = np.asarray(x, dtype=float)
+    if xa.ndim == 2 and name not in MULTICHANNEL:
+        return np.column_stack([METHODS[name](xa[:, j], fs, pulse_times, families,
+                                              pulses_per_rev, **params)
+                                for j in range(xa.shape[1])])
+    return METHODS[name](xa, fs, pulse_times, families, pulses_per_rev, **params)

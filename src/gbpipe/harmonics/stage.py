@@ -29,9 +29,10 @@ from gbpipe.harmonics.families import (
     removed_families,
     structural_modes,
 )
+from gbpipe.harmonics.joint import residual_joint
 from gbpipe.harmonics.metrics import removal_metrics
 from gbpipe.harmonics.spectra import order_spectrum_vs_rpm, power_spectrum_vs_rpm
-from gbpipe.harmonics.tsa import residual, residual_joint
+from gbpipe.harmonics.tsa import residual
 from gbpipe.io import longest_segment, mean_shaft_frequency, measured_signal
 
 __all__ = ["waterfalls", "remove", "variant_metrics", "sweep_waterfalls", "tsa_variant",
@@ -236,7 +237,8 @@ def split_residuals(record: xr.Dataset, names: Sequence[str],
     names : sequence of str
         Signal names (without ``_measured``).
     remove_fn : callable
-        ``remove_fn(x, fs, pulse_times, pulses_per_rev) -> residual``.
+        ``remove_fn(x, fs, pulse_times, pulses_per_rev) -> residual``, ``x`` and the
+        residual of shape ``(n, len(names))``: the signals' channels at once.
     lowest_order : float or None
         Lowest removed order [HSS orders]; None: nothing is removed.
     keep_below : float
@@ -268,14 +270,15 @@ def split_residuals(record: xr.Dataset, names: Sequence[str],
         sos = signal.butter(6, f_low, fs=fs, output="sos")
     ds = xr.Dataset(coords={"time": ("time", record.time.values,
                                      {"units": "s", "long_name": "time from record start"})})
-    for name in names:
-        measured = measured_signal(record, name)
-        x = np.asarray(measured.values, dtype=float)
-        if lowest_order is not None:
-            low = signal.sosfiltfilt(sos, x) if sos is not None else np.zeros_like(x)
-            x = low + remove_fn(x - low, fs, pulses, ppr)
-        ds[name] = ("time", x, {"units": measured.attrs.get("units", "1"),
-                                "long_name": f"{name}, measured-like after {what}"})
+    signals = [measured_signal(record, name) for name in names]
+    x = np.column_stack([np.asarray(m.values, dtype=float) for m in signals])
+    if lowest_order is not None:
+        # the channels in one call: a method may share its work on the angle among them
+        low = signal.sosfiltfilt(sos, x, axis=0) if sos is not None else np.zeros_like(x)
+        x = low + remove_fn(x - low, fs, pulses, ppr)
+    for j, (name, measured) in enumerate(zip(names, signals, strict=True)):
+        ds[name] = ("time", x[:, j], {"units": measured.attrs.get("units", "1"),
+                                      "long_name": f"{name}, measured-like after {what}"})
     ds.attrs.update(test=str(record.attrs.get("test", "")),
                     profile=str(record.attrs.get("profile", "")), sample_rate=fs)
     return ds
@@ -304,8 +307,9 @@ def record_residuals(record: xr.Dataset, names: Sequence[str],
     n_cycles, unbiased = int(tsa_cfg["n_cycles"]), bool(tsa_cfg["unbiased"])
 
     def tsa(x: np.ndarray, fs: float, pulses: np.ndarray, ppr: int) -> np.ndarray:
-        return residual_joint(x, fs, pulses, cycles, n_cycles, ppr, unbiased=unbiased,
-                              outside="keep")
+        return np.column_stack([residual_joint(x[:, j], fs, pulses, cycles, n_cycles, ppr,
+                                               unbiased=unbiased, outside="keep")
+                                for j in range(x.shape[1])])
 
     lowest = min(float(c) for c in cycles) if cycles else None
     ds = split_residuals(record, names, tsa, lowest, keep_below,

@@ -4,7 +4,8 @@
 cycles of a (possibly virtual) tachometer, blocks of ``n_cycles`` consecutive cycles are
 averaged, and each block's mean cycle -- the synchronous component: the cycle frequency
 and all its harmonics -- is subtracted from every cycle of the block.
-:func:`residual_joint` removes several families, jointly (default) or in cascade.
+:func:`gbpipe.harmonics.joint.residual_joint` removes several families, jointly
+(default) or in cascade, with the checks of this module (``checked_record`` ...).
 
 The cycle is given by ``cycle_order``, its frequency in orders of the tachometer shaft
 (HSS): 1 for the HSS itself; for any other shaft or mesh the exact kinematic ratio from
@@ -25,9 +26,7 @@ samples. Trim the record to the pulse span if the edge must be clean.
 
 from __future__ import annotations
 
-import warnings
-from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from fractions import Fraction
 from typing import Any, Literal
 
@@ -38,8 +37,7 @@ from gbpipe.harmonics.averaging import AVERAGING, CyclePlan
 from gbpipe.harmonics.checks import as_count, as_order
 from gbpipe.harmonics.tacho import AngleMethod, check_pulse_times
 
-__all__ = ["residual", "residual_joint", "synchronous_average", "TSAInfo", "JointInfo"]
-
+__all__ = ["residual", "synchronous_average", "TSAInfo"]
 
 
 @dataclass(frozen=True)
@@ -76,35 +74,11 @@ class TSAInfo:
     mean_cycles: np.ndarray
 
 
-@dataclass(frozen=True)
-class JointInfo:
-    """Details of one :func:`residual_joint` call.
-
-    Attributes
-    ----------
-    synchronous : list of numpy.ndarray
-        Synchronous estimate of each family, in the order of ``cycle_orders``.
-    valid : numpy.ndarray of bool
-        Samples processed by every family.
-    iterations : int
-        Passes over the families (1 for the cascade).
-    converged : bool
-        Whether the joint iteration met ``tol``.
-    history : list of float
-        Change of the residual at each pass, relative to ``||x||``.
-    """
-
-    synchronous: list[np.ndarray]
-    valid: np.ndarray
-    iterations: int
-    converged: bool
-    history: list[float] = field(default_factory=list)
-
-
-
-
-def _validate(x, fs, pulse_times, n_cycles, pulses_per_rev, t0, method,
-              outside) -> tuple[np.ndarray, int, AngleMap]:
+def checked_record(x: Any, fs: float, pulse_times: Any, n_cycles: int, pulses_per_rev: int,
+                   t0: float, method: AngleMethod, outside: str
+                   ) -> tuple[np.ndarray, int, AngleMap]:
+    """The checked record, cycles per block and angle map of a TSA call (also
+    :func:`gbpipe.harmonics.joint.residual_joint`'s)."""
     n_cycles = as_count(n_cycles, "n_cycles", 2)
     if outside not in ("keep", "nan"):
         raise ValueError(f"outside must be 'keep' or 'nan'; got {outside!r}")
@@ -114,19 +88,22 @@ def _validate(x, fs, pulse_times, n_cycles, pulses_per_rev, t0, method,
     return x, n_cycles, amap
 
 
-def _check_averaging(averaging: str) -> None:
+def check_averaging(averaging: str) -> None:
+    """Refuse an averaging that :data:`gbpipe.harmonics.averaging.AVERAGING` lacks."""
     if averaging not in AVERAGING:
         raise ValueError(f"averaging must be 'block', 'sliding' or 'quadratic'; "
                          f"got {averaging!r}")
 
 
-def _check_band_limit(band_limit: float | None) -> None:
+def check_band_limit(band_limit: float | None) -> None:
+    """Refuse a band limit outside (0, 1] of the Nyquist frequency (None: no limit)."""
     if band_limit is not None and not (0.0 < float(band_limit) <= 1.0):
         raise ValueError(f"band_limit must be in (0, 1] (fraction of the Nyquist frequency) "
                          f"or None; got {band_limit!r}")
 
 
-def _valid_mask(n: int, i_lo: int, i_hi: int) -> np.ndarray:
+def valid_mask(n: int, i_lo: int, i_hi: int) -> np.ndarray:
+    """Samples ``i_lo .. i_hi`` (the processed span) of ``n``, as a boolean mask."""
     return (np.arange(n) >= i_lo) & (np.arange(n) <= i_hi)
 
 
@@ -215,10 +192,10 @@ def residual(
         Non-numeric ``cycle_order`` or non-integer counts.
     """
     c = as_order(cycle_order)
-    x, n_cycles, amap = _validate(x, fs, pulse_times, n_cycles, pulses_per_rev, t0, method,
+    x, n_cycles, amap = checked_record(x, fs, pulse_times, n_cycles, pulses_per_rev, t0, method,
                                   outside)
-    _check_band_limit(band_limit)
-    _check_averaging(averaging)
+    check_band_limit(band_limit)
+    check_averaging(averaging)
     plan = CyclePlan(amap, c, n_cycles, samples_per_cycle, band_limit, averaging)
     s, means = plan.synchronous(x)
     r = x - s
@@ -226,7 +203,7 @@ def residual(
         seg = r[plan.i_lo:plan.i_hi + 1]
         w0 = plan.self_weight
         seg *= np.where(plan.partial, 1.0 / np.sqrt(1.0 + w0), 1.0 / np.sqrt(1.0 - w0))
-    valid = _valid_mask(x.size, plan.i_lo, plan.i_hi)
+    valid = valid_mask(x.size, plan.i_lo, plan.i_hi)
     if outside == "nan":
         r[~valid] = np.nan
     if not return_info:
@@ -247,142 +224,3 @@ def synchronous_average(x: np.ndarray, fs: float, pulse_times: np.ndarray,
     _, info = residual(x, fs, pulse_times, cycle_order, n_cycles, pulses_per_rev,
                        return_info=True, **kwargs)
     return info
-
-
-def residual_joint(
-    x: np.ndarray, fs: float, pulse_times: np.ndarray, cycle_orders: Sequence[float | Fraction],
-    n_cycles: int | Sequence[int] = 10, pulses_per_rev: int = 1, *,
-    mode: Literal["joint", "cascade"] = "joint", max_iter: int = 50, tol: float = 3e-3,
-    unbiased: bool = False, band_limit: float | None = 1.0,
-    averaging: Literal["block", "sliding", "quadratic"] = "block", t0: float = 0.0,
-    method: AngleMethod = "pchip", outside: Literal["keep", "nan"] = "keep",
-    return_info: bool = False,
-) -> np.ndarray | tuple[np.ndarray, JointInfo]:
-    """Remove several harmonic families together.
-
-    A plain cascade (``mode="cascade"``: TSA of family 1, then TSA of family 2 on its
-    residual, ...) leaves each family near -20 dB: the family-1 average of N cycles
-    also captures about ``|sin(N pi d) / (N sin(pi d))|`` of a family-2 component (d the
-    fractional part of the order ratio: 0.11, i.e. -19 dB, for 5.3569 HSS orders over 10
-    HSS cycles), which is subtracted as sidebands next to family-1 harmonics (spaced
-    ``1/N`` order: block-to-block changes) and never restored.
-
-    ``mode="joint"`` solves ``x = s_1 + ... + s_F + r`` with each ``s_f`` block-periodic
-    in its own cycle by block Gauss-Seidel (backfitting): ``s_f = TSA_f(x - sum_{g != f}
-    s_g)`` in turn, until a pass changes the residual by less than ``tol * ||x||``.
-    As each TSA is (nearly) a projection with ``TSA_f(s_f) = s_f``, this is the cascade
-    repeated on its own residual -- alternating projections -- converging to the
-    residual orthogonal to all families. On the test sweep (hss + mesh2, noise-free)
-    the leftover goes -25 dB (cascade) -> -40 dB after 2 passes -> -47 dB after 9; the
-    slow tail comes from near-coincident harmonics (3 x 5.3569 = 16.07 vs HSS order 16,
-    closer than the 1/N order resolution of a block).
-
-    Parameters
-    ----------
-    x, fs, pulse_times, pulses_per_rev, band_limit, t0, method, outside
-        As in :func:`residual`.
-    cycle_orders : sequence of float or Fraction
-        Cycle frequency of each family [HSS orders], each > 0.
-    n_cycles : int or sequence of int
-        Cycles per block, one value for all families or one per family.
-    mode : {"joint", "cascade"}
-        Joint iterative removal, or the plain cascade in the given order.
-    max_iter : int
-        Maximum passes over all families (joint).
-    tol : float
-        Convergence threshold (joint): stop when a pass changes the residual by less
-        than ``tol * ||x||`` (3e-3: -50 dB of the signal).
-    unbiased : bool
-        Scale the residual by ``sqrt(N / (N - F))`` (F families, common N; with
-        different N by ``1 / sqrt(1 - sum 1/N_f)``) to undo the noise-power loss.
-    return_info : bool
-        Also return a :class:`JointInfo`.
-
-    Returns
-    -------
-    numpy.ndarray, shape (n,)
-        Residual.
-    JointInfo
-        Only with ``return_info=True``.
-
-    Raises
-    ------
-    ValueError
-        As :func:`residual`, for any family; empty ``cycle_orders``; ``mode`` unknown.
-
-    Warns
-    -----
-    UserWarning
-        If the joint iteration does not meet ``tol`` in ``max_iter`` passes.
-    """
-    if isinstance(cycle_orders, str) or not isinstance(cycle_orders, Sequence | np.ndarray):
-        raise TypeError("cycle_orders must be a sequence of floats or Fractions, e.g. "
-                        "[1, kin.order('mesh2')]")
-    orders = [as_order(c, f"cycle_orders[{i}]") for i, c in enumerate(cycle_orders)]
-    if not orders:
-        raise ValueError("cycle_orders is empty: give at least one cycle order")
-    if mode not in ("joint", "cascade"):
-        raise ValueError(f"mode must be 'joint' or 'cascade'; got {mode!r}")
-    Ns = list(n_cycles) if isinstance(n_cycles, Sequence | np.ndarray) else [n_cycles] * len(
-        orders)
-    if len(Ns) != len(orders):
-        raise ValueError(f"n_cycles has {len(Ns)} values for {len(orders)} cycle_orders: "
-                         f"give one int, or one per family")
-    max_iter = as_count(max_iter, "max_iter")
-    x, _, amap = _validate(x, fs, pulse_times, Ns[0], pulses_per_rev, t0, method, outside)
-    Ns = [as_count(N, "n_cycles", 2) for N in Ns]
-    _check_band_limit(band_limit)
-    _check_averaging(averaging)
-    plans = [CyclePlan(amap, c, N, None, band_limit, averaging)
-             for c, N in zip(orders, Ns, strict=True)]
-    loss = sum(p.self_weight for p in plans)
-    if unbiased and loss >= 1:
-        raise ValueError(f"unbiased=True needs sum(1/n_cycles) < 1; got {loss:.3g}: use "
-                         f"more cycles per block")
-
-    # Both modes work on the residual: r <- (I - P_F) ... (I - P_1) r, accumulating each
-    # family's estimate. One pass is the cascade; repeating it is block Gauss-Seidel on
-    # x = sum_f s_f + r (because P_f s_f = s_f), i.e. alternating projections, which
-    # converges to the residual orthogonal to every family.
-    S = [np.zeros(x.size) for _ in plans]
-    r = x.copy()
-    x_power = max(float(np.sum(x**2)), np.finfo(float).tiny)
-    history: list[float] = []
-    passes = 1 if mode == "cascade" else max_iter
-    converged = mode == "cascade"
-    iterations = 0
-    for _ in range(passes):
-        iterations += 1
-        change = 0.0
-        for f, plan in enumerate(plans):
-            # Joint: order 0 (per-block mean) is left to the first family only, so that
-            # the families do not trade a shared constant back and forth.
-            d = plan.synchronous(r, zero_mean=(mode == "joint" and f > 0))[0]
-            S[f] += d
-            r -= d
-            change += float(np.sum(d**2))
-        rel = np.sqrt(change / x_power)
-        history.append(rel)
-        if not rel < 1e3:  # diverging (a quadratic fit is no projection): garbage, not a result
-            raise ValueError(
-                f"residual_joint diverged at pass {iterations} (relative change {rel:.2g}): "
-                f"the families' {averaging!r} averages do not separate on this record; use "
-                f"averaging 'block' or 'sliding', or mode 'cascade'")
-        if mode == "joint" and iterations > 1 and rel < tol:
-            converged = True
-            break
-    if not converged:
-        warnings.warn(
-            f"residual_joint: not converged after max_iter={max_iter} passes (last "
-            f"relative change {history[-1]:.2g} > tol={tol:g}); raise max_iter, or the "
-            f"families share harmonics that {Ns}-cycle blocks cannot separate",
-            UserWarning, stacklevel=2)
-    i_lo, i_hi = plans[0].i_lo, plans[0].i_hi
-    if unbiased:
-        r[i_lo:i_hi + 1] *= 1.0 / np.sqrt(1.0 - loss)
-    valid = _valid_mask(x.size, i_lo, i_hi)
-    if outside == "nan":
-        r[~valid] = np.nan
-    if not return_info:
-        return r
-    return r, JointInfo(S, valid, iterations, converged, history)
