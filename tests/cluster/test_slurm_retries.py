@@ -3,8 +3,9 @@
 tests/cluster/retry/Snakefile has two rules whose jobs write part of their output, then
 fail on their first attempt (1000 MB): ``oom`` touches 1200 MiB and is killed by SLURM's
 memory cgroup (state OUT_OF_MEMORY); ``cancelled`` waits and is cancelled by a watcher
-thread here with ``scancel`` (state CANCELLED). Both declare
-``mem_mb=lambda wildcards, attempt: 1000 * attempt`` and run through the repository's
+thread here with ``scancel`` (state CANCELLED). Both take their memory from the
+workflow's own resource functions (``Declared`` of ``workflow/lib/jobresources.py`` over
+``retry/resources.yaml``: 1000 MB times the attempt) and run through the repository's
 SLURM profile. Without retries, the run fails and neither output exists (Snakemake removed
 the partial files); with ``retries: 1``, each rule's second SLURM job asks for 2000 MB and
 completes, and each output holds that attempt's content only.
