@@ -23,11 +23,16 @@ from pathlib import Path
 from typing import Any
 
 import yaml
+from snakemake.benchmark import BENCHMARK_INTERVAL_SHORT
 
 #: The declarations file of the workflow.
 DECLARATIONS = Path(__file__).resolve().parents[1] / "resources.yaml"
 #: Keys of one rule's declaration.
 KEYS = ("threads", "mem_mb", "runtime")
+#: Snakemake's benchmark samples a job's processes when it starts, then every this many
+#: seconds: a job that ends sooner has only its launch sampled (the launcher's few MB and
+#: no CPU, never the script), so its memory is not measured at all.
+SAMPLE_INTERVAL_S = float(BENCHMARK_INTERVAL_SHORT)
 
 
 @dataclass(frozen=True)
@@ -36,9 +41,11 @@ class Measured:
 
     rule: str
     jobs: int
-    max_rss_mb: float     # peak resident memory of the script's process tree [MB]
+    max_rss_mb: float     # peak resident memory of the script's process tree [MB], over
+                          # the sampled jobs (NaN when none was)
     max_wall_s: float     # longest job [s]
     max_cpu_s: float      # most CPU time of one job [s]
+    unsampled: int = 0    # jobs shorter than SAMPLE_INTERVAL_S: memory not measured
 
 
 class Declared:
@@ -108,30 +115,49 @@ def read_benchmark(path: Path) -> dict[str, float]:
             "cpu_time": float(row["cpu_time"])}
 
 
-def measured(benchmarks: Iterable[Path], root: Path) -> dict[str, Measured]:
-    """Per rule, the largest use over its jobs' benchmark logs (under ``root``).
+def measured(benchmarks: Iterable[tuple[Path, Path]]) -> dict[str, Measured]:
+    """Per rule, the largest use over its jobs' benchmark logs.
 
-    Memory that psutil could not read is written as ``NA`` by Snakemake and raises here:
-    a measurement that is missing is not a measurement of zero.
+    ``benchmarks`` are ``(log, root)`` pairs, ``root`` the ``benchmarks`` folder the log
+    lies under (its first path component there names the rule), so that the logs of
+    several results folders (a study's runs, the default and the bench-record run) count
+    together. Memory that psutil could not read is written as ``NA`` by Snakemake and
+    raises here: a measurement that is missing is not a measurement of zero. A job
+    shorter than :data:`SAMPLE_INTERVAL_S` is counted in ``unsampled`` and left out of
+    the peak memory (its only sample is its launch), never taken as using a few MB.
     """
     rows: dict[str, list[dict[str, float]]] = {}
-    for path in benchmarks:
+    for path, root in benchmarks:
         rows.setdefault(rule_of(path, root), []).append(read_benchmark(path))
-    return {rule: Measured(rule, len(r), max(x["max_rss"] for x in r),
-                           max(x["s"] for x in r), max(x["cpu_time"] for x in r))
-            for rule, r in sorted(rows.items())}
+    out = {}
+    for rule, r in sorted(rows.items()):
+        sampled = [x["max_rss"] for x in r if x["s"] >= SAMPLE_INTERVAL_S]
+        out[rule] = Measured(rule, len(r), max(sampled, default=math.nan),
+                             max(x["s"] for x in r), max(x["cpu_time"] for x in r),
+                             unsampled=len(r) - len(sampled))
+    return out
 
 
-def measured_in(results: str | Path) -> dict[str, Measured]:
-    """:func:`measured` of every benchmark log of a results folder."""
-    root = Path(results) / "benchmarks"
-    return measured(sorted(root.rglob("*.tsv")), root)
+def measured_in(*results: str | Path) -> dict[str, Measured]:
+    """:func:`measured` of every benchmark log of one or several results folders."""
+    roots = [Path(folder) / "benchmarks" for folder in results]
+    return measured((path, root) for root in roots for path in sorted(root.rglob("*.tsv")))
 
 
 def propose(use: Measured, headroom: Mapping[str, float]) -> dict[str, int]:
     """A declaration from measured use: memory and run time times their headroom, memory
     rounded up to 50 MB, run time to whole minutes (at least ``headroom['min_runtime']``);
-    one thread (Snakemake sets the BLAS threads of a job to its ``threads``)."""
+    one thread (Snakemake sets the BLAS threads of a job to its ``threads``).
+
+    Raises
+    ------
+    ValueError
+        No job of the rule was long enough for its memory to be sampled.
+    """
+    if math.isnan(use.max_rss_mb):
+        raise ValueError(f"rule {use.rule}: no job ran {SAMPLE_INTERVAL_S} s or longer, so "
+                         "Snakemake never sampled its memory; keep its declaration or "
+                         "measure it on a slower run")
     mem = 50 * math.ceil(headroom["mem"] * use.max_rss_mb / 50)
     runtime = max(int(headroom["min_runtime"]),
                   math.ceil(headroom["runtime"] * use.max_wall_s / 60))
@@ -140,14 +166,18 @@ def propose(use: Measured, headroom: Mapping[str, float]) -> dict[str, int]:
 
 def compare(declared: Declared, use: Mapping[str, Measured]) -> list[dict[str, Any]]:
     """One row per declared or measured rule: measured against declared, and whether the
-    measured peak memory and wall time fit in the first attempt's declaration."""
+    measured peak memory and wall time fit in the first attempt's declaration.
+    ``unsampled_jobs`` counts the jobs whose memory Snakemake never sampled (shorter than
+    :data:`SAMPLE_INTERVAL_S`); a rule with only such jobs is judged on its run time."""
     rows = []
     for rule in sorted(set(declared.rules) | set(use)):
         d, m = declared.rules.get(rule), use.get(rule)
         row: dict[str, Any] = {"rule": rule, "jobs": m.jobs if m else 0}
         row["threads"] = d["threads"] if d else None
         row["declared_mem_mb"] = d["mem_mb"] if d else None
-        row["measured_rss_mb"] = round(m.max_rss_mb, 1) if m else None
+        row["measured_rss_mb"] = (round(m.max_rss_mb, 1)
+                                  if m and not math.isnan(m.max_rss_mb) else None)
+        row["unsampled_jobs"] = m.unsampled if m else 0
         row["declared_runtime_min"] = d["runtime"] if d else None
         row["measured_wall_s"] = round(m.max_wall_s, 2) if m else None
         row["measured_cpu_s"] = round(m.max_cpu_s, 2) if m else None
@@ -155,7 +185,7 @@ def compare(declared: Declared, use: Mapping[str, Measured]) -> list[dict[str, A
             row["status"] = "undeclared"
         elif m is None:
             row["status"] = "not run"
-        elif m.max_rss_mb > d["mem_mb"]:
+        elif m.max_rss_mb > d["mem_mb"]:   # False for NaN: no job's memory was sampled
             row["status"] = "memory exceeded"
         elif m.max_wall_s > 60 * d["runtime"]:
             row["status"] = "runtime exceeded"

@@ -2,12 +2,13 @@
 
     python workflow/scripts/resources_report.py [RESULTS ...] [--csv FILE] [--propose]
 
-RESULTS are results folders (default ``results``; a study's ``results/<name>`` folders
-may be given together: each rule's largest use over all of them counts). The table
-compares each rule's declaration in ``workflow/resources.yaml`` (the script's memory
-share, without the Snakemake overhead) with the largest peak memory and wall time of its
-jobs. The exit status is 1 when a rule's measured peak memory or wall time exceeds its
-declaration, or a rule that ran is not declared.
+RESULTS are results folders (default ``results``; a study's ``results/<name>`` folders may
+be given together: each rule's largest use over all of them counts). The table compares
+each rule's declaration in ``workflow/resources.yaml`` (the script's memory share, without
+the Snakemake overhead) with the largest peak memory and wall time of its jobs (a job
+shorter than Snakemake's 0.5 s sampling interval has no memory sample: it is counted in
+``unsampled_jobs``, not as using a few MB). The exit status is 1 when a rule's measured
+peak memory or wall time exceeds its declaration, or a rule that ran is not declared.
 
 ``--propose`` prints, instead, a ``rules:`` section derived from the measurement with the
 headroom of ``workflow/resources.yaml``; paste it there after a full default run.
@@ -26,22 +27,17 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "lib"))
 import jobresources  # noqa: E402  (the workflow's own helpers, beside this folder)
 
 COLUMNS = ("rule", "jobs", "threads", "declared_mem_mb", "measured_rss_mb",
-           "declared_runtime_min", "measured_wall_s", "measured_cpu_s", "status")
+           "unsampled_jobs", "declared_runtime_min", "measured_wall_s", "measured_cpu_s",
+           "status")
 
 
-def _merged(folders: list[Path]) -> dict[str, jobresources.Measured]:
+def _measured(folders: list[Path]) -> dict[str, jobresources.Measured]:
     """Each rule's largest use over several results folders."""
-    out: dict[str, jobresources.Measured] = {}
     for folder in folders:
         if not (folder / "benchmarks").is_dir():
             raise SystemExit(f"{folder}/benchmarks does not exist: run the workflow first "
                              "(every rule writes a benchmark log there)")
-        for rule, m in jobresources.measured_in(folder).items():
-            old = out.get(rule)
-            out[rule] = m if old is None else jobresources.Measured(
-                rule, old.jobs + m.jobs, max(old.max_rss_mb, m.max_rss_mb),
-                max(old.max_wall_s, m.max_wall_s), max(old.max_cpu_s, m.max_cpu_s))
-    return out
+    return jobresources.measured_in(*folders)
 
 
 def _markdown(rows: list[dict]) -> str:
@@ -63,12 +59,16 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
 
     declared = jobresources.Declared(args.declared)
-    use = _merged(args.results)
+    use = _measured(args.results)
     if args.propose:
         print(f"rules:  # from {', '.join(map(str, args.results))}; headroom "
               f"{declared.headroom}")
         for rule, m in use.items():
-            p = jobresources.propose(m, declared.headroom)
+            try:
+                p = jobresources.propose(m, declared.headroom)
+            except ValueError as exc:   # every job shorter than the sampling interval
+                print(f"  # {exc}")
+                continue
             print(f"  {rule}: {{threads: {p['threads']}, mem_mb: {p['mem_mb']}, "
                   f"runtime: {p['runtime']}}}  # {m.jobs} jobs, peak {m.max_rss_mb:.0f} MB, "
                   f"longest {m.max_wall_s:.1f} s")
