@@ -23,6 +23,7 @@ from gbpipe.identify import (
     decimate,
     decimation_filter,
     frf_error_db,
+    identify_methods,
     identify_record,
     match_bandwidth,
     model_matrices,
@@ -326,6 +327,23 @@ def test_stage_error_lists_every_failed_row(cfg):
     assert "all 4 identifications failed" in msg
     for key in ("Tdrv_to_wdrv/clean", "Tdrv_to_wdrv/raw", "mimo/clean", "mimo/raw"):
         assert key in msg
+
+
+def test_methods_of_one_job_equal_their_separate_fits(cfg):
+    # The identify job fits every method on data conditioned once; sharing that work must
+    # not change a model: each method's dataset equals a job of that method alone. An
+    # unknown method is refused before any fit.
+    c = _job_cfg(cfg, versions=["clean", "raw"],
+                 pairings=[p for p in cfg["identify"]["pairings"] if p["name"] == "mimo"])
+    rec, val, truth = _record(cfg, 1, "speed_up"), _record(cfg, 2, "speed_down"), _truth(c)
+    together = identify_methods(c, rec, val, truth, ["pbsid", "moesp"])
+    assert list(together) == ["pbsid", "moesp"]
+    for method, ds in together.items():
+        alone = identify_record(c, rec, val, truth, method)
+        assert ds.attrs["method"] == method
+        xr.testing.assert_identical(ds, alone)
+    with pytest.raises(ValueError, match="unknown method 'sippy'"):
+        identify_methods(c, rec, val, truth, ["pbsid", "sippy"])
 
 
 def test_stale_truth_is_refused(cfg):

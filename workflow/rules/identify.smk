@@ -68,10 +68,8 @@ rule tsa_tests:
 
 rule identify:
     message:
-        "Identify {wildcards.method} on {wildcards.test} ({wildcards.profile}): every pairing "
-        "x data version vs the true model"
-    wildcard_constraints:
-        method="pbsid|moesp|n4sid",
+        "Identify {wildcards.test} ({wildcards.profile}) with {params.methods}: every "
+        "pairing x data version vs the true model"
     input:
         record=f"{RESULTS}/simulate/{{test}}_{{profile}}.nc",
         validation=lambda w: f"{RESULTS}/simulate/{_partner(w.test)}_{w.profile}.nc",
@@ -89,12 +87,16 @@ rule identify:
         cfg=lambda w: {"campaign": {"settle": config["campaign"]["settle"]},
                        "identify": config["identify"]},
         removal_versions=REMOVAL_VERSIONS,
+        methods=lambda w: ", ".join(config["identify"]["methods"]),
     output:
-        nc=f"{RESULTS}/identify/{{test}}_{{profile}}_{{method}}.nc",
+        # one job per record fits every method on the same conditioned (decimated) data;
+        # one file per method, in the order of identify.methods
+        nc=expand(f"{RESULTS}/identify/{{{{test}}}}_{{{{profile}}}}_{{method}}.nc",
+                  method=config["identify"]["methods"]),
     log:
-        f"{RESULTS}/logs/identify/{{test}}_{{profile}}_{{method}}.log",
+        f"{RESULTS}/logs/identify/{{test}}_{{profile}}.log",
     benchmark:
-        f"{RESULTS}/benchmarks/identify/{{test}}_{{profile}}_{{method}}.tsv"
+        f"{RESULTS}/benchmarks/identify/{{test}}_{{profile}}.tsv"
     threads: DECLARED.threads("identify")
     resources:
         **DECLARED.resources("identify"),

@@ -6,9 +6,9 @@ the records after harmonic removal from the ``tsa_tests`` and ``removal_tests`` 
 
 Public API
 ----------
-identify_record(cfg, record, validation, truth, method, removed)
+identify_methods(cfg, record, validation, truth, methods, removed)
     Every configured pairing x data version (clean, raw, tsa, or a removal method) of one
-    record, one method;
+    record, per method (the record conditioned once); ``identify_record`` for one method;
     ``truth`` and ``validation`` None for a measured record (held-out end, nonparametric
     reference).
 table_rows(datasets)
@@ -51,10 +51,15 @@ from gbpipe.identify.reference import (
     truth_reference,
     within_reference,
 )
-from gbpipe.identify.stage import holdout_split, identify_record, record_label
+from gbpipe.identify.stage import (
+    holdout_split,
+    identify_methods,
+    identify_record,
+    record_label,
+)
 from gbpipe.identify.table import SHORT, best_pairings, table_rows
 
-__all__ = ["identify_record", "holdout_split", "record_label", "Reference",
+__all__ = ["identify_methods", "identify_record", "holdout_split", "record_label", "Reference",
            "truth_reference", "nonparametric_reference", "within_reference", "table_rows",
            "best_pairings", "models_dataset",
            "model_matrices", "fit_model", "validation_fit", "reflect_out_of_band",

@@ -1,17 +1,19 @@
-"""The identification stage: every pairing x data version of one record with one method.
+"""The identification stage: every pairing x data version of one record, per method.
 
-:func:`identify_record` fits the models of one job (test, profile, method) and compares
+:func:`identify_methods` fits the models of one job (test, profile; every method) and compares
 each with the true FRF and modes of its pairing, read from the model stage's
 ``truth.nc`` (:func:`gbpipe.model.truth_dataset`): identification depends on data, not on
 the model code, and runs unchanged on a measured record (docs/architecture.md, "Stage
-graph"). A row whose fit raises, or whose validation fit is not finite, is a failure;
-a job whose rows all fail raises :class:`gbpipe.errors.StageError`.
+graph"). The record is conditioned (decimated, per version) once for all methods, and the
+reference of each pairing x version is computed once. A row whose fit raises, or whose
+validation fit is not finite, is a failure; a method whose rows all fail raises
+:class:`gbpipe.errors.StageError`. :func:`identify_record` is the one-method case.
 """
 
 from __future__ import annotations
 
 import logging
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from typing import Any
 
 import numpy as np
@@ -31,7 +33,7 @@ from gbpipe.identify.reference import (
 )
 from gbpipe.io import longest_segment
 
-__all__ = ["identify_record", "holdout_split", "record_label"]
+__all__ = ["identify_methods", "identify_record", "holdout_split", "record_label"]
 
 log = logging.getLogger("gbpipe")
 
@@ -82,6 +84,19 @@ def identify_record(cfg: Mapping[str, Any], record: xr.Dataset,
                     | None = None) -> xr.Dataset:
     """Identify every configured pairing x data version of one record with one method.
 
+    :func:`identify_methods` with ``methods=(method,)``; the parameters, return value and
+    errors are those of one of its methods.
+    """
+    return identify_methods(cfg, record, validation, truth, (method,), removed)[method]
+
+
+def identify_methods(cfg: Mapping[str, Any], record: xr.Dataset,
+                     validation: xr.Dataset | None, truth: xr.Dataset | None,
+                     methods: Sequence[str],
+                     removed: Mapping[str, tuple[xr.Dataset, xr.Dataset | None]]
+                     | None = None) -> dict[str, xr.Dataset]:
+    """Identify every configured pairing x data version of one record with each method.
+
     Parameters
     ----------
     cfg : mapping
@@ -96,7 +111,8 @@ def identify_record(cfg: Mapping[str, Any], record: xr.Dataset,
         The model stage's ``truth.nc`` (true FRFs on the identification grid, modes). None
         for a measured record: each model is scored against the nonparametric FRF of the
         same data in its coherent band (:mod:`gbpipe.identify.reference`).
-    method : {"pbsid", "moesp", "n4sid"}
+    methods : sequence of {"pbsid", "moesp", "n4sid"}
+        The methods, each fitted on the same conditioned data.
     removed : mapping str -> (xarray.Dataset, xarray.Dataset or None), optional
         Per harmonic-removal version (``tsa``, ``vkf``, ...): the record and the
         validation record after that removal (``tsa_tests`` or ``removal_tests``
@@ -105,21 +121,22 @@ def identify_record(cfg: Mapping[str, Any], record: xr.Dataset,
 
     Returns
     -------
-    xarray.Dataset
-        :func:`gbpipe.identify.models_dataset`; ``status`` says "ok" or why a row failed;
-        the ``reference`` attribute says what the FRFs were scored against.
+    dict of str -> xarray.Dataset
+        Per method, :func:`gbpipe.identify.models_dataset`; ``status`` says "ok" or why a
+        row failed; the ``reference`` attribute says what the FRFs were scored against.
 
     Raises
     ------
     ValueError
-        Unknown method, or a removal version without its records in ``removed``.
+        An unknown method, or a removal version without its records in ``removed``.
     gbpipe.errors.StageError
-        Every row failed (the message lists each failure).
+        Every row of a method failed (the message lists each failure).
     """
     s = cfg["identify"]
     record = longest_segment(record)  # a split bench record: its longest piece
-    if method not in METHODS:
-        raise ValueError(f"unknown method {method!r}; use {', '.join(METHODS)}")
+    for method in methods:
+        if method not in METHODS:
+            raise ValueError(f"unknown method {method!r}; use {', '.join(METHODS)}")
     removed = dict(removed or {})
     for version in s["versions"]:
         if version in ("clean", "raw"):
@@ -130,13 +147,13 @@ def identify_record(cfg: Mapping[str, Any], record: xr.Dataset,
     fs = float(record.attrs["sample_rate"])
     fs_id = float(s["sample_rate"])
     dt = 1.0 / fs_id
-    # each (record, version, signal) is conditioned once for all pairings
+    # each (record, version, signal) is conditioned once for all pairings and methods
     grid = (fs, float(cfg["campaign"]["settle"]), fs_id, s["lowpass"])
     rec = ConditionedRecord(record, {v: tr for v, (tr, _) in removed.items()}, *grid)
     val = (None if validation is None else
            ConditionedRecord(validation, {v: tv for v, (_, tv) in removed.items()}, *grid))
 
-    results = []
+    rows = []  # (pairing, version, data, reference): what every method fits and is scored on
     for p in s["pairings"]:
         ref_truth = truth_reference(truth, p, record) if truth is not None else None
         # a mapped set-point of a closed-loop bench record: the nonparametric estimate
@@ -151,19 +168,32 @@ def identify_record(cfg: Mapping[str, Any], record: xr.Dataset,
             else:
                 uv, yv = val(p["inputs"], version), val(p["outputs"], version)
             ref = ref_truth or nonparametric_reference(u, y, fs_id, s, r)
-            res = {"pairing": p["name"], "version": version, "inputs": list(p["inputs"]),
-                   "outputs": list(p["outputs"]), "ref": ref, "model": None}
-            try:
-                _fit_row(res, method, (u, y, uv, yv), dt, s)
-            except (ValueError, RuntimeError, np.linalg.LinAlgError) as exc:
-                res.update(status=f"failed: {type(exc).__name__}: {exc}", model=None)
-            if res["status"] == "ok":
-                log.info("%s %-14s %-5s order %2d: bandwidth %6.1f Hz (vs %s), fit %s %%",
-                         method, p["name"], version, res["model"].order, res["bandwidth"],
-                         ref.kind, np.round(res["fit"], 1))
-            else:
-                log.warning("%s %s/%s %s", method, p["name"], version, res["status"])
-            results.append(res)
+            rows.append((p, version, (u, y, uv, yv), ref))
+
+    return {method: _identify_rows(method, rows, dt, s, record, validation)
+            for method in methods}
+
+
+def _identify_rows(method: str, rows: list[tuple[Mapping[str, Any], str, tuple[np.ndarray, ...],
+                                                 Reference]],
+                   dt: float, s: Mapping[str, Any], record: xr.Dataset,
+                   validation: xr.Dataset | None) -> xr.Dataset:
+    # fit every pairing x version with one method; the method's dataset
+    results = []
+    for p, version, data, ref in rows:
+        res = {"pairing": p["name"], "version": version, "inputs": list(p["inputs"]),
+               "outputs": list(p["outputs"]), "ref": ref, "model": None}
+        try:
+            _fit_row(res, method, data, dt, s)
+        except (ValueError, RuntimeError, np.linalg.LinAlgError) as exc:
+            res.update(status=f"failed: {type(exc).__name__}: {exc}", model=None)
+        if res["status"] == "ok":
+            log.info("%s %-14s %-5s order %2d: bandwidth %6.1f Hz (vs %s), fit %s %%",
+                     method, p["name"], version, res["model"].order, res["bandwidth"],
+                     ref.kind, np.round(res["fit"], 1))
+        else:
+            log.warning("%s %s/%s %s", method, p["name"], version, res["status"])
+        results.append(res)
     if not any(r["status"] == "ok" for r in results):
         failures = "\n".join(f"  {r['pairing']}/{r['version']}: {r['status']}" for r in results)
         raise StageError(f"identify {method} on {record_label(record)}: all {len(results)} "
