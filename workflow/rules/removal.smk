@@ -140,27 +140,30 @@ rule figures_removal:
 
 rule removal_tests:
     message:
-        "Harmonic removal by {wildcards.method} on the measured-like {wildcards.test} "
+        "Harmonic removal by {params.methods} on the measured-like {wildcards.test} "
         "({wildcards.profile}) record, for identification"
-    wildcard_constraints:
-        method="|".join(REMOVAL_VERSIONS) or "none",
     input:
         record=f"{RESULTS}/simulate/{{test}}_{{profile}}.nc",
         random=rules.simulate_random.output.nc,
         bench=f"{RESULTS}/model/bench.nc",
         code=code("removal_tests.py"),
     params:
-        method_cfg=lambda w: config["removal"][w.method],
+        method_cfg={m: config["removal"][m] for m in REMOVAL_VERSIONS},
         families_cfg={**FAMILIES_CFG, "removal": {"tests": config["removal"]["tests"]}},
         signals=_id_signals(),
         keep_below=config["identify"]["tsa_keep_below"],
         spectra=config["spectra"],
+        methods=", ".join(REMOVAL_VERSIONS),
     output:
-        nc=f"{RESULTS}/removal/tests/{{method}}/{{test}}_{{profile}}.nc",
+        # one job per record runs every removal version (the record, its random-only twin
+        # and their harmonic part read and formed once); one file per method, in the order
+        # of REMOVAL_VERSIONS
+        nc=expand(f"{RESULTS}/removal/tests/{{method}}/{{{{test}}}}_{{{{profile}}}}.nc",
+                  method=REMOVAL_VERSIONS),
     log:
-        f"{RESULTS}/logs/removal_tests/{{method}}/{{test}}_{{profile}}.log",
+        f"{RESULTS}/logs/removal_tests/{{test}}_{{profile}}.log",
     benchmark:
-        f"{RESULTS}/benchmarks/removal_tests/{{method}}/{{test}}_{{profile}}.tsv"
+        f"{RESULTS}/benchmarks/removal_tests/{{test}}_{{profile}}.tsv"
     threads: DECLARED.threads("removal_tests")
     resources:
         **DECLARED.resources("removal_tests"),
