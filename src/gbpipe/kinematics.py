@@ -30,6 +30,7 @@ __all__ = [
     "total_ratio",
     "frequencies",
     "order_of",
+    "whole_multiple",
     "shaft_names",
     "mesh_names",
     "pulsating_orders",
@@ -308,6 +309,16 @@ def frequencies(
     else:
         ds["hss_rpm"] = ((), float(rpm), {"units": "rev/min", "long_name": "HSS speed"})
     return ds
+
+
+def whole_multiple(order: Fraction | int, cycles: Sequence[Fraction]) -> bool:
+    """Whether an HSS ``order`` is a whole multiple of one of the ``cycles`` (HSS orders).
+
+    Exact: ``order / c`` an integer, with Fractions from the teeth (no tolerance). A line
+    of that order repeats identically every cycle ``c``, so a synchronous removal of ``c``
+    (TSA, or any method of :mod:`gbpipe.harmonics`) takes it off.
+    """
+    return any((Fraction(order) / c).denominator == 1 for c in cycles)
 
 
 def pulsating_orders(ripple: Mapping[str, Any]) -> list[tuple[int, float]]:

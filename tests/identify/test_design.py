@@ -1,5 +1,6 @@
 """The design step's prediction against simulation and physics: coherence by Monte Carlo,
-the 95 % magnitude-error bound, encoder quantisation noise, and the bench cases."""
+the 95 % magnitude-error bound, encoder quantisation noise, the gear-excitation lines of each
+data version, and the bench cases."""
 
 from __future__ import annotations
 
@@ -11,7 +12,13 @@ from scipy import signal
 
 from gbpipe import identify, model
 from gbpipe.identify.design import error_bound_db, pairing_prediction
-from gbpipe.identify.spectra_model import quantised_speed_psd, reference_psd, white_psd
+from gbpipe.identify.spectra_model import (
+    excitation_psds,
+    quantised_speed_psd,
+    reference_psd,
+    white_psd,
+)
+from gbpipe.kinematics import order_of
 from gbpipe.simulate import multisine
 from gbpipe.simulate.profiles import step_reference
 
@@ -114,7 +121,9 @@ def bench(cfg):
     c["noise"] = {"motor_ripple": {"driver": dict(quiet), "driven": dict(quiet)},
                   "sensor": {"speed": 0.002, "torque": 10.0},
                   "encoder": {"counts_per_rev": 8388608}}
-    c["identify"] = {**c["identify"], "pairings": [
+    # no gear excitation either: the measured-like version holds the sensor noise alone
+    c["excitation"] = {**c["excitation"], "gearboxes": []}
+    c["identify"] = {**c["identify"], "versions": ["clean", "raw"], "pairings": [
         {"name": "Tdrv_to_wdrv", "inputs": ["motor_torque_driver"],
          "outputs": ["speed_gb2_hss"]},
         {"name": "Tdrn_to_Mdrn", "inputs": ["motor_torque_driven"],
@@ -124,13 +133,13 @@ def bench(cfg):
     return c, model.bench_ss(c), truths
 
 
-def _torque_test(c, closed, truths, scale=1.0):
+def _torque_test(c, closed, truths, scale=1.0, version="raw"):
     """torque_up, tapered, with a 2 kN·m multisine 1-450 Hz on the torque set-point; the
-    whole set-point times ``scale``."""
+    whole set-point times ``scale``; the prediction of one data version."""
     fs = float(c["campaign"]["sample_rate"])
     _, w, tq = step_reference(c["campaign"], "torque_up", "tapered")
     tq = tq + multisine(fs, w.size / fs, 1.0, 450.0, 2000.0, frequency_resolution=0.1)
-    return identify.predict_test(c, closed, truths, w, scale * tq, fs)
+    return identify.predict_test(c, closed, truths, w, scale * tq, fs).sel(version=version)
 
 
 def test_pairing_without_excitation_predicts_zero_band(bench):
@@ -177,3 +186,69 @@ def test_snr_scales_by_20_db_with_ten_times_the_excitation(bench):
     small = e1 < 0.1
     assert small.any()
     assert np.allclose(e10[small], e1[small] / 10, rtol=0.02)
+
+
+def test_gear_excitation_lines_carry_their_power_where_they_sweep(cfg):
+    # Parseval for each line: a sinusoid of amplitude a has power a^2 / 2; spread over the
+    # frequencies o x [f_lo, f_hi] (+- half the resolution) it crosses. Independent of the
+    # code: the integral of the PSD on a fine grid and the support from the orders.
+    stages = cfg["gearbox"]["stages"]
+    exc = {"gearboxes": ["gb1"], "shaft_orders": [{"order": 3, "amplitude": 4.0e-5}],
+           "mesh": [{"stage": 2, "amplitude": 6.0e-5, "harmonics": [1.0, 0.4]}]}
+    f = np.arange(0.0, 3000.0, 0.01)
+    rot, load, res = (10.0, 12.0), 0.5, 1.0
+    names = ["misalign_gb1_coupling", "te_gb1_mesh2", "te_gb2_mesh2"]
+    psd = excitation_psds(exc, stages, names, f, rot, load, res)
+    o2 = float(order_of(stages, "mesh2"))
+    expect = {"misalign_gb1_coupling": ((4.0e-5 * load) ** 2 / 2, [3.0]),
+              "te_gb1_mesh2": (((6.0e-5 * load) ** 2 + (0.4 * 6.0e-5 * load) ** 2) / 2,
+                               [o2, 2 * o2])}
+    for name, (power, orders) in expect.items():
+        assert np.trapezoid(psd[name], f) == pytest.approx(power, rel=0.01)
+        inside = np.zeros(f.size, dtype=bool)
+        for o in orders:
+            inside |= (f >= o * rot[0] - res / 2) & (f <= o * rot[1] + res / 2)
+        assert np.all(psd[name][~inside] == 0.0) and np.all(psd[name][inside] > 0.0)
+    assert not psd["te_gb2_mesh2"].any()  # gb2 carries no excitation here
+    # a synchronous removal of the HSS takes off the whole-multiple HSS order 3, not the
+    # mesh-2 lines (their order is no whole number); one of mesh 2 takes off those
+    hss = excitation_psds(exc, stages, names, f, rot, load, res, [order_of(stages, "hss")])
+    assert not hss["misalign_gb1_coupling"].any()
+    assert np.array_equal(hss["te_gb1_mesh2"], psd["te_gb1_mesh2"])
+    assert (order_of(stages, "mesh2") / order_of(stages, "hss")).denominator != 1
+    mesh2 = excitation_psds(exc, stages, names, f, rot, load, res, [order_of(stages, "mesh2")])
+    assert not mesh2["te_gb1_mesh2"].any()
+    assert np.array_equal(mesh2["misalign_gb1_coupling"], psd["misalign_gb1_coupling"])
+
+
+def test_each_data_version_is_predicted_from_the_noise_it_holds(bench):
+    # The quiet bench of the fixture with the default gear excitation switched on:
+    # - raw data hold the gear lines: the band of the torque-meter pairing ends inside a
+    #   line's sweep (computed here from the orders and the set-point's speed range),
+    #   below the band without excitation;
+    # - clean data (no gear excitation; the sensor noise kept as the reference), and a
+    #   removal of every family's cycle (hss, mesh1, mesh2), both give exactly the
+    #   prediction without gear excitation.
+    c0, closed, truths = bench
+    c = copy.deepcopy(c0)
+    c["excitation"]["gearboxes"] = ["gb1", "gb2"]
+    c["identify"] = {**c["identify"], "versions": ["clean", "raw", "tsa"]}
+    c["tsa"] = {**c["tsa"], "tests": ["hss", "mesh1", "mesh2"]}
+    assert c["excitation"]["shaft_orders"] and c["excitation"]["mesh"]
+    quiet = _torque_test(c0, closed, truths).sel(pairing="Tdrn_to_Mdrn")
+    pair = "Tdrn_to_Mdrn"
+    clean, raw, tsa = (_torque_test(c, closed, truths, version=v).sel(pairing=pair)
+                       for v in ("clean", "raw", "tsa"))
+    f = clean.frequency.values
+    assert float(raw.predicted_hz) < float(quiet.predicted_hz)
+    _, w, _ = step_reference(c["campaign"], "torque_up", "tapered")
+    lo, hi = float(w.min()) / (2 * np.pi), float(w.max()) / (2 * np.pi)
+    stages, exc = c["gearbox"]["stages"], c["excitation"]
+    orders = [float(s["order"]) for s in exc["shaft_orders"]]
+    orders += [h * float(order_of(stages, f"mesh{m['stage']}")) for m in exc["mesh"]
+               for h in range(1, len(m["harmonics"]) + 1)]
+    first_miss = f[np.argmax(f > float(raw.predicted_hz))]
+    assert any(o * lo - 0.5 <= first_miss <= o * hi + 0.5 for o in orders), first_miss
+    for name in ("predicted_hz", "predicted_error_db", "snr_db"):
+        for version in (clean, tsa):
+            np.testing.assert_allclose(version[name].values, quiet[name].values, rtol=1e-9)

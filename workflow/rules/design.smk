@@ -27,11 +27,15 @@ rule design:
     input:
         code=code("design.py"),
     params:
-        # the bench (model), the set-points (campaign), the noise spectra, and the
-        # identification that is predicted
-        cfg={**{k: config[k] for k in ("seed", "gearbox", "bench", "campaign", "noise")},
+        # the bench (model), the set-points (campaign), the noise spectra and the gear
+        # excitation, what each data version removes, and the identification predicted
+        cfg={**{k: config[k] for k in ("seed", "gearbox", "bench", "campaign", "noise",
+                                       "excitation")},
+             "tsa": {"tests": config["tsa"]["tests"]},
+             "removal": {"tests": config["removal"]["tests"]},
              "identify": {k: config["identify"][k] for k in (
-                 "pairings", "frf", "sample_rate", "order", "max_order", "tolerance_db")}},
+                 "pairings", "versions", "frf", "sample_rate", "order", "max_order",
+                 "tolerance_db")}},
         records=[(t, p) for t in design_tests() for p in config["identify"]["profiles"]],
     output:
         # one job: the bench and the true models are built once for every record

@@ -1,6 +1,7 @@
 """Rule `design`: predicted output SNR, coherence, FRF error and identifiable band of every
-identification pairing for every test and profile, from the bench model, the test's
-set-points and the noise spectra, before identification runs (docs/design.md)."""
+identification pairing and data version for every test and profile, from the bench model,
+the test's set-points, the noise spectra and the gear excitation, before identification
+runs (docs/design.md)."""
 
 from gbpipe import identify, io, model, simulate
 
@@ -19,9 +20,10 @@ for (test, profile), path in zip(snakemake.params.records, snakemake.output.nc, 
              wildcards={"test": test, "profile": profile},
              title=f"Predicted identifiable band of every pairing, test {test}, "
                    f"{profile} steps")
-    for name in ds.pairing.values:
-        d = ds.sel(pairing=name)
-        by = ", ".join(f"{s} {x:.0%}" for s, x in zip(
-            ds.source.values, d.excitation_share.values, strict=True) if x >= 0.01)
-        log.info("%s %s: %-14s predicted band %6.1f Hz (excited by %s)", test, profile,
-                 name, d.predicted_hz, by or "nothing")
+    for version in ds.version.values:
+        for name in ds.pairing.values:
+            d = ds.sel(version=version, pairing=name)
+            by = ", ".join(f"{s} {x:.0%}" for s, x in zip(
+                ds.source.values, d.excitation_share.values, strict=True) if x >= 0.01)
+            log.info("%s %s %-10s: %-14s predicted band %6.1f Hz (excited by %s)", test,
+                     profile, version, name, d.predicted_hz, by or "nothing")

@@ -12,9 +12,9 @@ p, i, out = snakemake.params, snakemake.input, snakemake.output
 fit = p.cfg["fit"]
 identified = io.read(i.identified)
 pairings = [model.Pairing.from_config(q) for q in p.cfg["pairings"]]
-# a simulated record: the design step's predicted band; a bench record: where its
-# nonparametric FRF is coherent
-band = (io.read(i.design).identifiable if "design" in i.keys()
+# a simulated record: the design step's predicted band of the fitted version; a bench
+# record: where its nonparametric FRF is coherent
+band = (io.read(i.design).identifiable.sel(version=fit["version"]) if "design" in i.keys()
         else model.assessable_band(identified, fit["version"]))
 data = model.fit_data(identified, band, pairings, fit["version"], fit["band"], fit["weight"])
 log.info("fitting %s from the prior (fit.start) to %d pairings, version %s",

@@ -91,7 +91,7 @@ def _errors(ax: Any, ds: xr.Dataset, label: str) -> None:
 def fig_design(designs: Mapping[str, xr.Dataset], stem: str | os.PathLike,
                caption: str | os.PathLike,
                achieved: Mapping[tuple[str, str], float] | None = None,
-               detail: str | None = None) -> dict[str, str]:
+               detail: str | None = None, version: str | None = None) -> dict[str, str]:
     """Draw the design figure and write its caption.
 
     Parameters
@@ -107,6 +107,9 @@ def fig_design(designs: Mapping[str, xr.Dataset], stem: str | os.PathLike,
     detail : str, optional
         Test label whose error curves the right panel shows; default the one with the
         widest predicted band.
+    version : str, optional
+        The data version the designs (one version each) and the achieved bands are of,
+        for the caption.
 
     Returns
     -------
@@ -122,10 +125,12 @@ def fig_design(designs: Mapping[str, xr.Dataset], stem: str | os.PathLike,
     save(fig, stem)
     numbers = design_numbers(designs, achieved)
     write_caption(caption, "Predicted identifiable band", "extension (design step)",
-                  "Left: per pairing and test, the band from identify.frf.f_min up to which "
+                  (f"Data version {version}. " if version else "")
+                  + "Left: per pairing and test, the band from identify.frf.f_min up to which "
                   "the predicted 95 % FRF magnitude error of a direct closed-loop estimate "
                   "(Ljung 1999, eq. 9.62) stays within identify.tolerance_db, from the bench "
-                  "model, the set-points and the noise spectra; black ticks: the match "
+                  "model, the set-points, the noise spectra and the gear excitation the "
+                  "version keeps; black ticks: the match "
                   "bandwidth identification achieved. Right: the predicted error against "
                   f"frequency for {detail} (worst element of each pairing).", numbers)
     return numbers

@@ -101,7 +101,8 @@ def fig_bode_identified(datasets: Sequence[xr.Dataset], cases: Sequence[Mapping[
 def fig_bandwidth(rows: Sequence[Mapping[str, Any]], stem: str | os.PathLike) -> None:
     """Heat map of the match bandwidth: pairing x version (rows) vs variant x method.
 
-    A cell marked × is a pairing the design step predicts not identifiable from that test.
+    A cell marked × is a pairing the design step predicts not identifiable from that test
+    and data version.
     """
 
     ylab = sorted({(r["pairing"], r["version"]) for r in rows},
@@ -135,12 +136,12 @@ def fig_bandwidth(rows: Sequence[Mapping[str, Any]], stem: str | os.PathLike) ->
 
 def _predicted_numbers(rows: Sequence[Mapping[str, Any]], cases: Sequence[Mapping[str, Any]]
                        ) -> dict[str, str]:
-    # the design step's predicted band of each drawn case (any version: one prediction)
+    # the design step's predicted band of each drawn case, for its data version
     out = {}
+    keys = ("test", "profile", "pairing", "version")
     for c in cases:
         pred = [float(r["predicted_hz"]) for r in rows
-                if (r["test"], r["profile"], r["pairing"]) == (c["test"], c["profile"],
-                                                               c["pairing"])]
+                if tuple(r[k] for k in keys) == tuple(c[k] for k in keys)]
         if pred and np.isfinite(pred[0]):
             out[f"{c['pairing']} on {c['test']} {c['profile']}: predicted band"] = (
                 f"{pred[0]:.1f} Hz")
@@ -194,7 +195,7 @@ def identification_figures(datasets: Sequence[xr.Dataset], best: Mapping[str, An
                   {**numbers, **_predicted_numbers(rows, cases)})
     fig_bandwidth(rows, out["bandwidth_png"])
     best_row = max(rows, key=lambda r: float(r["achieved_hz"]))
-    not_identifiable = sorted({str(r["pairing"]) + " on " + str(r["test"])
+    not_identifiable = sorted({f"{r['pairing']} on {r['test']} ({r['version']})"
                                for r in rows if r.get("identifiable") == "no"})
     write_caption(out["bandwidth_caption"],
                   "Match bandwidth across variants, methods, pairings and data versions",
@@ -202,8 +203,8 @@ def identification_figures(datasets: Sequence[xr.Dataset], best: Mapping[str, An
                   "Highest frequency up to which the identified FRF stays within ±1 dB of the "
                   "reference, for every test variant, method, signal pairing and data "
                   "version; a cross marks a pairing the design step predicts not "
-                  "identifiable from that test (its 0 Hz is a limit of the physics, not a "
-                  "failure of the method).",
+                  "identifiable from that test and data version (its 0 Hz is a limit of "
+                  "the physics, not a failure of the method).",
                   {"widest": f"{best_row['achieved_hz']} Hz ({best_row['pairing']}, "
                              f"{best_row['version']}, {best_row['test']} "
                              f"{best_row['profile']}, {best_row['method']})",

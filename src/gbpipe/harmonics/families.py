@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 
 from gbpipe.harmonics.checks import as_order, as_positive
-from gbpipe.kinematics import order_of, pulsating_orders
+from gbpipe.kinematics import order_of, pulsating_orders, whole_multiple
 
 __all__ = ["family_orders", "cycle_orders", "family_names", "excitation_families",
            "removed_families", "test_families", "structural_modes"]
@@ -125,7 +125,7 @@ def removed_families(families: Mapping[str, Sequence[Fraction]],
     """
     out = {}
     for name, orders in families.items():
-        kept = [o for o in orders if any((o / c).denominator == 1 for c in cycles)]
+        kept = [o for o in orders if whole_multiple(o, cycles)]
         if kept:
             out[name] = kept
     return out

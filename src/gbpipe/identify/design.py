@@ -5,14 +5,16 @@ the true model ``G`` of each pairing, the spectra of the sources (set-point exci
 motor ripple) and the sensor noise, per pairing and frequency:
 
 1. **Split the output.** Every recorded signal is a response to the sources ``s``
-   (``speed_ref``, ``torque_ref``, ``disturbance_driver``, ``disturbance_driven``) plus its
-   own sensor noise: ``u = T_u s + n_u``, ``y = T_y s + n_y``. The part of ``y`` that the
-   model ``G`` does not explain is ``v = y − G u = (T_y − G T_u) s + n_y − G n_u``. A
-   source whose ``T_y − G T_u`` is zero at every frequency (to rounding) reaches the
-   outputs only through the pairing's inputs: it *excites* the pairing (a set-point on the
-   own motor's loop, the own motor's ripple). Every other source is *disturbance*: it
-   reaches ``y`` by another path (the other motor's ripple, the other loop's set-point) and
-   enters ``u`` only by feedback, so it adds to the noise and nothing to the excitation.
+   (``speed_ref``, ``torque_ref``, ``disturbance_driver``, ``disturbance_driven``, and the
+   angle-locked gear excitation ``te_*``, ``misalign_*``) plus its own sensor noise:
+   ``u = T_u s + n_u``, ``y = T_y s + n_y``. The part of ``y`` that the model ``G`` does
+   not explain is ``v = y − G u = (T_y − G T_u) s + n_y − G n_u``. A source whose
+   ``T_y − G T_u`` is zero at every frequency (to rounding) reaches the outputs only
+   through the pairing's inputs: it *excites* the pairing (a set-point on the own motor's
+   loop, the own motor's ripple). Every other source is *disturbance*: it reaches ``y`` by
+   another path (the other motor's ripple, the other loop's set-point, the gear
+   excitation) and enters ``u`` only by feedback, so it adds to the noise and nothing to
+   the excitation.
 2. **Spectra.** ``Φ_u^r = Σ_exc T_u Φ_s T_uᴴ`` (input spectrum due to the exciting
    sources) and ``Φ_v = Σ_dist |T_y − G T_u|² Φ_s + Φ_ny + |G|² Φ_nu`` (diagonal).
 3. **Variance** of a direct closed-loop estimate of order ``n`` from ``N`` samples (Ljung,
@@ -34,6 +36,11 @@ motor ripple) and the sensor noise, per pairing and frequency:
    of the bound (highest grid frequency up to which all points pass), the full mask is
    kept so non-contiguous bands show.
 
+:func:`predict_test` does this once per data version (:func:`version_cycles`): ``raw``
+with every gear-excitation line, a harmonic-removal version without the lines its cycles
+take off, ``clean`` without gear excitation (and, as a reference, with the measured-like
+sensor noise: see its Notes).
+
 Bias from sensor noise on the inputs (errors in variables) is ``Φ_nu / Φ_u`` relative, below
 1e-3 for the configured torque sensors, and not modelled. See docs/design.md.
 """
@@ -41,18 +48,25 @@ Bias from sensor noise on the inputs (errors in variables) is ``Φ_nu / Φ_u`` r
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
+from fractions import Fraction
 from typing import Any
 
 import numpy as np
 import xarray as xr
 
 from gbpipe.identify.metrics import match_bandwidth
-from gbpipe.identify.spectra_model import reference_psd, ripple_psd, sensor_psds
+from gbpipe.identify.spectra_model import (
+    excitation_psds,
+    reference_psd,
+    ripple_psd,
+    sensor_psds,
+)
+from gbpipe.kinematics import order_of
 from gbpipe.lti import NamedSS, frf
 from gbpipe.units import squared_units
 
 __all__ = ["SOURCES", "Z95", "EXACT", "error_bound_db", "pairing_prediction", "predict",
-           "predict_test"]
+           "predict_test", "version_cycles"]
 
 #: Inputs of the closed-loop bench (:func:`gbpipe.model.bench_ss`) that carry random or
 #: designed signals: the set-points and the motor-torque disturbances (ripple)
@@ -270,19 +284,36 @@ def predict(t_frf: np.ndarray, signals: Sequence[str], sources: Sequence[str],
     )
 
 
+def version_cycles(cfg: Mapping[str, Any], version: str) -> list[Fraction] | None:
+    """Cycle orders [HSS orders] whose lines a data version has taken off.
+
+    ``None`` for ``clean`` (no gear excitation at all), ``[]`` for ``raw`` (measured-like,
+    every line), the orders of ``tsa.tests`` for ``tsa``, those of ``removal.tests`` for a
+    removal method (the ``removal_tests`` stage takes off the families of those cycles).
+    """
+    if version == "clean":
+        return None
+    if version == "raw":
+        return []
+    names = cfg["tsa"]["tests"] if version == "tsa" else cfg["removal"]["tests"]
+    return [order_of(cfg["gearbox"]["stages"], c) for c in names]
+
+
 def predict_test(cfg: Mapping[str, Any], closed: NamedSS, truths: Mapping[str, NamedSS],
                  speed_ref: np.ndarray, torque_ref: np.ndarray, fs: float,
                  resolution: float = 1.0) -> xr.Dataset:
-    """The prediction of :func:`predict` for one test, from its set-points and the config.
+    """The prediction of :func:`predict` for one test and every data version.
 
     Parameters
     ----------
     cfg : mapping
-        Validated configuration: ``noise`` (``motor_ripple``, ``sensor``, ``encoder``) and
-        ``identify`` (``pairings``, ``frf``, ``sample_rate``, ``order`` and ``max_order``,
-        ``tolerance_db``).
+        Validated configuration: ``gearbox.stages``, ``excitation``, ``noise``
+        (``motor_ripple``, ``sensor``, ``encoder``), ``tsa.tests``, ``removal.tests`` and
+        ``identify`` (``pairings``, ``versions``, ``frf``, ``sample_rate``, ``order`` and
+        ``max_order``, ``tolerance_db``).
     closed : NamedSS
-        The closed-loop bench (:func:`gbpipe.model.bench_ss`), inputs :data:`SOURCES`.
+        The closed-loop bench (:func:`gbpipe.model.bench_ss`): inputs :data:`SOURCES` and
+        the angle-locked excitation ``te_*``, ``misalign_*``.
     truths : mapping
         Pairing name -> its true model (:func:`gbpipe.model.truth_model`).
     speed_ref, torque_ref : ndarray
@@ -291,34 +322,67 @@ def predict_test(cfg: Mapping[str, Any], closed: NamedSS, truths: Mapping[str, N
         Sample rate of the set-points and of the recorded noise [Hz]
         (``campaign.sample_rate``).
     resolution : float
-        Frequency resolution [Hz] of the set-point spectra (and of a ripple line's width).
+        Frequency resolution [Hz] of the set-point spectra (and of a line's width).
 
     Returns
     -------
     xarray.Dataset
-        As :func:`predict`; attributes also give the record length [s].
+        As :func:`predict`, along a first dimension ``version`` (``identify.versions``):
+        ``raw`` with the sensor noise and every gear-excitation line, a harmonic-removal
+        version without the lines its cycles take off (:func:`version_cycles`), ``clean``
+        with the sensor noise and no gear excitation; attributes also give the record
+        length [s].
+
+    Notes
+    -----
+    Clean records carry no sensor noise, and the variance limit of noise-free data is
+    unbounded: it would call every excited pairing identifiable to the top of the grid,
+    where what limits a clean fit is the estimator's bias, which no prediction here
+    models (docs/design.md). The clean rows are therefore predicted with the measured-like
+    sensor noise and no gear lines: the band the measured counterpart reaches with every
+    line removed.
     """
     idc, noise = cfg["identify"], cfg["noise"]
     grid = idc["frf"]
     f = np.geomspace(float(grid["f_min"]), float(grid["f_max"]), int(grid["points"]))
     signals = sorted({s for p in idc["pairings"] for s in (*p["inputs"], *p["outputs"])})
-    t_frf = frf(closed.select(list(SOURCES), signals), f)
+    locked = [s for s in closed.inputs if s.startswith(("te_", "misalign_"))]
+    sources = [*SOURCES, *locked]
+    t_frf = frf(closed.select(sources, signals), f)
     rotation = (float(np.min(speed_ref)) / (2 * np.pi), float(np.max(speed_ref)) / (2 * np.pi))
-    ripple = noise["motor_ripple"]
-    source_psd = {
-        "speed_ref": reference_psd(speed_ref, fs, f, resolution),
-        "torque_ref": reference_psd(torque_ref, fs, f, resolution),
-        **{f"disturbance_{m}": ripple_psd(ripple[m], fs, f, rotation, resolution,
-                                          f"noise.motor_ripple.{m}")
-           for m in ("driver", "driven")},
-    }
+    # the simulator scales every gear-excitation amplitude with the braking-torque set-point
+    load = float(np.sqrt(np.mean((torque_ref / float(cfg["excitation"]["load_reference"]))
+                                 ** 2)))
+    set_points = {"speed_ref": reference_psd(speed_ref, fs, f, resolution),
+                  "torque_ref": reference_psd(torque_ref, fs, f, resolution)}
     kinds = {s: _KIND[closed.units[s]] for s in signals}
     sensor = sensor_psds(noise, kinds, fs, f)
     order = idc["order"] if isinstance(idc["order"], int) else idc["max_order"]
     duration = speed_ref.size / fs
     n_samples = int(round(duration * float(idc["sample_rate"])))
-    ds = predict(t_frf, signals, SOURCES, idc["pairings"],
-                 {p["name"]: frf(truths[p["name"]], f) for p in idc["pairings"]},
-                 source_psd, sensor, f, int(order), n_samples, float(idc["tolerance_db"]))
+    g = {p["name"]: frf(truths[p["name"]], f) for p in idc["pairings"]}
+    per_version = []
+    for version in idc["versions"]:
+        cycles = version_cycles(cfg, version)
+        removed = cycles or []
+        source_psd = {
+            **set_points,
+            **{f"disturbance_{m}": ripple_psd(noise["motor_ripple"][m], fs, f, rotation,
+                                              resolution, f"noise.motor_ripple.{m}", removed)
+               for m in ("driver", "driven")},
+            # clean data have no gear excitation (the simulator adds it to the measured-like
+            # signals only); their sensor noise: the Notes
+            **({} if cycles is None else excitation_psds(
+                cfg["excitation"], cfg["gearbox"]["stages"], locked, f, rotation, load,
+                resolution, removed)),
+        }
+        per_version.append(predict(t_frf, signals, sources, idc["pairings"], g, source_psd,
+                                   sensor, f, int(order), n_samples,
+                                   float(idc["tolerance_db"])))
+    ds = xr.concat(per_version, dim="version", coords="minimal", compat="override",
+                   join="exact", combine_attrs="override")
+    ds = ds.assign_coords(version=("version", list(idc["versions"]), {
+        "units": "1", "long_name": "identification data version (clean, raw, or after a "
+                                   "harmonic removal)"}))
     ds.attrs["duration"] = duration
     return ds

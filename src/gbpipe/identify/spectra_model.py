@@ -15,6 +15,14 @@ a set-point signal, as :func:`gbpipe.identify.design.predict` needs them:
   sample), and ``ω_k = (θ_k − θ_{k−1}) fs`` passes it through ``(1 − z⁻¹) fs``, whose gain
   is ``|1 − e^{−j2πf/fs}|² fs² = 4 fs² sin²(π f / fs)``; with the one-sided PSD of ``e``,
   ``2 (q² / 12) / fs``, the speed noise PSD is ``(2 q² / 3) fs sin²(π f / fs)``;
+* the angle-locked gear excitation (``excitation``: shaft orders as an angle error across
+  each HSS coupling, mesh transmission errors with their harmonics) [rad]: each line of
+  HSS order ``o`` and amplitude ``a`` at ``excitation.load_reference``, scaled with the
+  braking-torque set-point as the simulator does, is a line of amplitude
+  ``a · rms(torque_ref / load_reference)`` spread like a ripple line over ``o · f_rot``;
+* a harmonic-removal version (TSA, a removal method) takes off every line whose HSS order
+  is a whole multiple of one of its cycles' orders (:func:`gbpipe.kinematics.whole_multiple`,
+  as for the harmonic families), the motors' pulsating lines included;
 * a set-point (step, ramp, designed multisine or PRBS): Welch's average periodogram
   (:func:`scipy.signal.welch`), Hann segments of ``1 / resolution`` seconds overlapping by
   3/4 (the squared Hann windows then sum to a constant, so a step anywhere in the record
@@ -23,17 +31,19 @@ a set-point signal, as :func:`gbpipe.identify.design.predict` needs them:
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
+from fractions import Fraction
 from typing import Any
 
 import numpy as np
 from scipy.signal import welch
 
 from gbpipe.errors import ConfigError
-from gbpipe.kinematics import pulsating_orders
+from gbpipe.kinematics import order_of, pulsating_orders, whole_multiple
 
-__all__ = ["white_psd", "quantised_speed_psd", "line_psd", "ripple_psd", "sensor_psds",
-           "reference_psd"]
+__all__ = ["white_psd", "quantised_speed_psd", "line_psd", "ripple_psd", "excitation_psds",
+           "sensor_psds", "reference_psd"]
+
 
 
 def white_psd(rms: float, fs: float, f_hz: np.ndarray) -> np.ndarray:
@@ -68,7 +78,8 @@ def line_psd(f_hz: np.ndarray, f_lo: float, f_hi: float, amplitude: float,
 
 
 def ripple_psd(ripple: Any, fs: float, f_hz: np.ndarray, rotation_hz: tuple[float, float],
-               resolution: float, field: str = "noise.motor_ripple") -> np.ndarray:
+               resolution: float, field: str = "noise.motor_ripple",
+               removed: Sequence[Fraction] = ()) -> np.ndarray:
     """PSD [(N·m)² / Hz] of one motor's torque ripple.
 
     Parameters
@@ -87,6 +98,8 @@ def ripple_psd(ripple: Any, fs: float, f_hz: np.ndarray, rotation_hz: tuple[floa
         Analysis resolution [Hz] a line is widened by.
     field : str
         Config path, for messages.
+    removed : sequence of Fraction
+        Cycle orders of a harmonic removal: the pulsating lines it takes off are left out.
     """
     if isinstance(ripple, (int, float)):
         return white_psd(float(ripple), fs, f_hz)
@@ -100,9 +113,65 @@ def ripple_psd(ripple: Any, fs: float, f_hz: np.ndarray, rotation_hz: tuple[floa
         raise ConfigError(f"{field}.pulsating", "needs 'harmonic' and 'amplitude' in every "
                           "line (and an integer pole_pairs)") from exc
     for order, amplitude in lines:
-        psd = psd + line_psd(f_hz, order * rotation_hz[0], order * rotation_hz[1],
-                             amplitude, resolution)
+        if not whole_multiple(order, removed):
+            psd = psd + line_psd(f_hz, order * rotation_hz[0], order * rotation_hz[1],
+                                 amplitude, resolution)
     return psd
+
+
+def excitation_psds(excitation: Mapping[str, Any], stages: Sequence[Mapping[str, Any]],
+                    inputs: Sequence[str], f_hz: np.ndarray, rotation_hz: tuple[float, float],
+                    load_scale: float, resolution: float,
+                    removed: Sequence[Fraction] = ()) -> dict[str, np.ndarray]:
+    """PSD [rad² / Hz] of each angle-locked excitation input of the bench.
+
+    Parameters
+    ----------
+    excitation : mapping
+        ``cfg["excitation"]``: ``gearboxes``, ``shaft_orders`` (``order``, ``amplitude``
+        [rad]) and ``mesh`` (``stage``, ``amplitude`` [rad], ``harmonics`` weights).
+    stages : sequence of mapping
+        ``gearbox.stages`` (exact mesh orders).
+    inputs : sequence of str
+        The bench's excitation inputs, ``te_<g>_mesh<k>`` and ``misalign_<g>_coupling``.
+    f_hz : ndarray
+        Grid [Hz].
+    rotation_hz : (float, float)
+        Lowest and highest HSS rotation frequency of the test [Hz].
+    load_scale : float
+        rms over the test of ``torque_ref / excitation.load_reference`` [1].
+    resolution : float
+        Analysis resolution [Hz] a line is widened by.
+    removed : sequence of Fraction
+        Cycle orders of a harmonic removal: the lines it takes off are left out.
+
+    Returns
+    -------
+    dict
+        Input name -> PSD; zero for a gearbox without excitation.
+    """
+    f = np.asarray(f_hz, dtype=float)
+    out = {}
+    for name in inputs:
+        gearbox = name.split("_")[1]
+        if name.startswith("misalign_"):
+            lines = [(Fraction(str(s["order"])), float(s["amplitude"]))
+                     for s in excitation["shaft_orders"]]
+        else:
+            stage = int(name.rsplit("mesh", 1)[1])
+            mesh = [m for m in excitation["mesh"] if int(m["stage"]) == stage]
+            o = order_of(stages, f"mesh{stage}")
+            lines = [(h * o, float(m["amplitude"]) * float(w)) for m in mesh
+                     for h, w in enumerate(m["harmonics"], start=1)]
+        psd = np.zeros(f.size)
+        if gearbox in excitation["gearboxes"]:
+            for order, amplitude in lines:
+                if amplitude > 0 and not whole_multiple(order, removed):
+                    psd = psd + line_psd(f, float(order) * rotation_hz[0],
+                                         float(order) * rotation_hz[1],
+                                         amplitude * load_scale, resolution)
+        out[name] = psd
+    return out
 
 
 def sensor_psds(noise: Mapping[str, Any], kinds: Mapping[str, str], fs: float,

@@ -32,12 +32,14 @@ def _within_pct(sel: xr.Dataset, ny: int, nu: int, tol: float) -> float:
 
 
 def _predicted(designs: Mapping[tuple[str, str], xr.Dataset], ds: xr.Dataset,
-               pairing: str) -> float:
-    # the design step's predicted band of this pairing on this record (NaN: no prediction)
+               pairing: str, version: str) -> float:
+    # the design step's predicted band of this pairing and data version on this record
+    # (NaN: no prediction)
     design = designs.get((ds.attrs["test"], ds.attrs["profile"]))
-    if design is None or pairing not in list(design.pairing.values):
+    if (design is None or pairing not in list(design.pairing.values)
+            or version not in list(design.version.values)):
         return float("nan")
-    return float(design.predicted_hz.sel(pairing=pairing))
+    return float(design.predicted_hz.sel(pairing=pairing, version=version))
 
 
 def table_rows(datasets: Sequence[xr.Dataset],
@@ -47,8 +49,9 @@ def table_rows(datasets: Sequence[xr.Dataset],
 
     Every number is read from the datasets (what the NetCDF files store).
     ``achieved_hz`` is the match bandwidth against ``reference``; ``predicted_hz`` the
-    band the design step (:mod:`gbpipe.identify.design`) expected from the bench model,
-    the excitation and the noise, before identification ran (NaN without a design file);
+    band the design step (:mod:`gbpipe.identify.design`) expected for that data version
+    from the bench model, the excitation and the noise, before identification ran (NaN
+    without a design file);
     ``identifiable`` says ``no`` where that prediction is 0 Hz, so that a 0 Hz achieved
     bandwidth there reads as a limit of the physics, not a failure of the method. Rows of
     the ``tsa`` version also say how much of the clean-data bandwidth harmonic removal
@@ -59,7 +62,7 @@ def table_rows(datasets: Sequence[xr.Dataset],
     datasets : sequence of xarray.Dataset
         ``identify`` outputs.
     designs : mapping (test, profile) -> xarray.Dataset, optional
-        ``design`` outputs (``predicted_hz`` per pairing).
+        ``design`` outputs (``predicted_hz`` per version and pairing).
     """
     designs = dict(designs or {})
     rows = []
@@ -75,7 +78,8 @@ def table_rows(datasets: Sequence[xr.Dataset],
             mm = sel.mode_matched.values
             ok = np.isfinite(mt)
             rel = np.abs(mm[ok] - mt[ok]) / mt[ok]
-            pred = _predicted(designs, ds, str(sel.pairing.values))
+            pred = _predicted(designs, ds, str(sel.pairing.values),
+                              str(sel.version.values))
             rows.append({
                 "test": ds.attrs["test"], "profile": ds.attrs["profile"],
                 "method": ds.attrs["method"], "pairing": str(sel.pairing.values),
