@@ -40,26 +40,44 @@ rule sweep_random:
         "../scripts/sweep.py"
 
 
-rule simulate_random:
+def _twin_tests():
+    # the records removal_tests scores against a random-only twin: every identified test
+    # and its validation record (rules.identify reads both after each removal version)
+    tests = list(config["identify"]["tests"])
+    return sorted({*tests, *(_partner(t) for t in tests)})
+
+
+rule simulate_with_random:
     message:
-        "Closed-loop test {wildcards.test} ({wildcards.profile}) again with the same seeds and "
-        "no angle-locked excitation (random-only)"
+        "Closed-loop test {wildcards.test} ({wildcards.profile} steps), clean and "
+        "measured-like, and again with the same seeds and no angle-locked excitation "
+        "(random-only)"
+    wildcard_constraints:
+        # only the records with a removal version to score; every other record: simulate
+        test="|".join(_twin_tests()) if REMOVAL_VERSIONS else "none",
+        profile="|".join(config["identify"]["profiles"]),
     input:
         code=code("simulate.py"),
     params:
         cfg=SIMULATE_CFG,
-        random_only=True,
     output:
-        nc=f"{RESULTS}/simulate/random/{{test}}_{{profile}}.nc",
+        # one job for both: the twin repeats the record's simulation with the excitation
+        # off, and a job of its own cost more to start than to simulate
+        nc=f"{RESULTS}/simulate/{{test}}_{{profile}}.nc",
+        random=f"{RESULTS}/simulate/random/{{test}}_{{profile}}.nc",
     log:
-        f"{RESULTS}/logs/simulate_random/{{test}}_{{profile}}.log",
+        f"{RESULTS}/logs/simulate_with_random/{{test}}_{{profile}}.log",
     benchmark:
-        f"{RESULTS}/benchmarks/simulate_random/{{test}}_{{profile}}.tsv"
-    threads: DECLARED.threads("simulate_random")
+        f"{RESULTS}/benchmarks/simulate_with_random/{{test}}_{{profile}}.tsv"
+    threads: DECLARED.threads("simulate_with_random")
     resources:
-        **DECLARED.resources("simulate_random"),
+        **DECLARED.resources("simulate_with_random"),
     script:
         "../scripts/simulate.py"
+
+
+# a record with a twin is simulated with it (simulate_with_random), any other by simulate
+ruleorder: simulate_with_random > simulate
 
 
 def _removal_test_jobs():
@@ -144,7 +162,7 @@ rule removal_tests:
         "({wildcards.profile}) record, for identification"
     input:
         record=f"{RESULTS}/simulate/{{test}}_{{profile}}.nc",
-        random=rules.simulate_random.output.nc,
+        random=rules.simulate_with_random.output.random,
         bench=f"{RESULTS}/model/bench.nc",
         code=code("removal_tests.py"),
     params:

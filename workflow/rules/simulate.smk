@@ -1,4 +1,4 @@
-# the test records' config slice (also that of simulate_random, removal.smk)
+# the test records' config slice (also that of simulate_with_random, removal.smk)
 SIMULATE_CFG = {k: config[k] for k in ("seed", "gearbox", "bench", "campaign", "noise",
                                        "excitation", "tachometer")}
 
@@ -10,7 +10,6 @@ rule simulate:
         code=code("simulate.py"),
     params:
         cfg=SIMULATE_CFG,
-        random_only=False,
     output:
         nc=f"{RESULTS}/simulate/{{test}}_{{profile}}.nc",
     log:
