@@ -31,6 +31,7 @@ __all__ = [
     "frequencies",
     "order_of",
     "whole_multiple",
+    "excitation_lines",
     "shaft_names",
     "mesh_names",
     "pulsating_orders",
@@ -319,6 +320,37 @@ def whole_multiple(order: Fraction | int, cycles: Sequence[Fraction]) -> bool:
     (TSA, or any method of :mod:`gbpipe.harmonics`) takes it off.
     """
     return any((Fraction(order) / c).denominator == 1 for c in cycles)
+
+
+def excitation_lines(excitation: Mapping[str, Any], stages: Sequence[Mapping[str, Any]]
+                     ) -> dict[str, list[tuple[Fraction, float]]]:
+    """HSS orders and amplitudes of the angle-locked gear excitation's lines.
+
+    The one place the ``excitation`` section becomes lines (harmonic families, the design
+    step's spectra).
+
+    Parameters
+    ----------
+    excitation : mapping
+        ``cfg["excitation"]``: ``shaft_orders`` (``order``, ``amplitude`` [rad]) and
+        ``mesh`` (``stage``, ``amplitude`` [rad], ``harmonics`` weights).
+    stages : sequence of mapping
+        ``gearbox.stages`` (exact mesh orders).
+
+    Returns
+    -------
+    dict
+        ``"shaft"`` -> ``(order, amplitude)`` per shaft order; ``"mesh<k>"`` ->
+        ``(h x mesh order, amplitude x weight)`` per harmonic ``h`` of stage k's mesh; in
+        config order, orders as exact Fractions.
+    """
+    lines = {"shaft": [(Fraction(s["order"]).limit_denominator(1000), float(s["amplitude"]))
+                       for s in excitation["shaft_orders"]]}
+    for m in excitation["mesh"]:
+        o = order_of(stages, f"mesh{m['stage']}")
+        lines[f"mesh{m['stage']}"] = [(h * o, float(m["amplitude"]) * float(w))
+                                      for h, w in enumerate(m["harmonics"], start=1)]
+    return lines
 
 
 def pulsating_orders(ripple: Mapping[str, Any]) -> list[tuple[int, float]]:

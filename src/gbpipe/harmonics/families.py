@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 
 from gbpipe.harmonics.checks import as_order, as_positive
-from gbpipe.kinematics import order_of, pulsating_orders, whole_multiple
+from gbpipe.kinematics import excitation_lines, order_of, pulsating_orders, whole_multiple
 
 __all__ = ["family_orders", "cycle_orders", "family_names", "excitation_families",
            "removed_families", "test_families", "structural_modes"]
@@ -100,14 +100,9 @@ def excitation_families(cfg: Mapping[str, Any]) -> dict[str, list[Fraction]]:
         The pulsating torque is locked to the shaft angle like the gear excitation, so it
         is harmonic content, removed with it and absent from the random-only records.
     """
-    stages = cfg["gearbox"]["stages"]
-    exc = cfg["excitation"]
-    fam = {"shaft": [Fraction(s["order"]).limit_denominator(1000)
-                     for s in exc["shaft_orders"] if s["amplitude"] > 0]}
-    for m in exc["mesh"]:
-        o = order_of(stages, f"mesh{m['stage']}")
-        fam[f"mesh{m['stage']}"] = [h * o for h, w in enumerate(m["harmonics"], start=1)
-                                    if w > 0 and m["amplitude"] > 0]
+    fam = {name: [order for order, amplitude in lines if amplitude > 0]
+           for name, lines in excitation_lines(cfg["excitation"],
+                                               cfg["gearbox"]["stages"]).items()}
     if "noise" in cfg:
         fam["motor"] = sorted({Fraction(order)
                                for spec in cfg["noise"]["motor_ripple"].values()

@@ -39,11 +39,10 @@ import numpy as np
 from scipy.signal import welch
 
 from gbpipe.errors import ConfigError
-from gbpipe.kinematics import order_of, pulsating_orders, whole_multiple
+from gbpipe.kinematics import excitation_lines, pulsating_orders, whole_multiple
 
 __all__ = ["white_psd", "quantised_speed_psd", "line_psd", "ripple_psd", "excitation_psds",
            "sensor_psds", "reference_psd"]
-
 
 
 def white_psd(rms: float, fs: float, f_hz: np.ndarray) -> np.ndarray:
@@ -151,21 +150,15 @@ def excitation_psds(excitation: Mapping[str, Any], stages: Sequence[Mapping[str,
         Input name -> PSD; zero for a gearbox without excitation.
     """
     f = np.asarray(f_hz, dtype=float)
+    by_source = excitation_lines(excitation, stages)
     out = {}
     for name in inputs:
         gearbox = name.split("_")[1]
-        if name.startswith("misalign_"):
-            lines = [(Fraction(str(s["order"])), float(s["amplitude"]))
-                     for s in excitation["shaft_orders"]]
-        else:
-            stage = int(name.rsplit("mesh", 1)[1])
-            mesh = [m for m in excitation["mesh"] if int(m["stage"]) == stage]
-            o = order_of(stages, f"mesh{stage}")
-            lines = [(h * o, float(m["amplitude"]) * float(w)) for m in mesh
-                     for h, w in enumerate(m["harmonics"], start=1)]
+        # misalign_<g>_coupling carries the shaft orders, te_<g>_mesh<k> stage k's mesh
+        source = "shaft" if name.startswith("misalign_") else name.rsplit("_", 1)[1]
         psd = np.zeros(f.size)
         if gearbox in excitation["gearboxes"]:
-            for order, amplitude in lines:
+            for order, amplitude in by_source.get(source, []):
                 if amplitude > 0 and not whole_multiple(order, removed):
                     psd = psd + line_psd(f, float(order) * rotation_hz[0],
                                          float(order) * rotation_hz[1],
