@@ -1,11 +1,11 @@
 # Identification stage (paper section 3, Fig 6, and its future work: identification after
-# harmonic removal). model (truth.nc) + simulate + tsa_tests -> identify
+# harmonic removal). model (truth.nc) + simulate + removal_tests -> identify
 # {test}_{profile}_{method} -> table + figures.
 from gbpipe.identify import VALIDATION_PARTNER, VERSIONS
 from gbpipe.simulate import base_test
 
-# identification versions that are a removal method of their own (rules removal_tests in
-# removal.smk; tsa has tsa_tests)
+# identification versions that are a removal method of their own (rule removal_tests in
+# removal.smk writes them, and the tsa version, in one job per record)
 REMOVAL_VERSIONS = [v for v in config["identify"]["versions"] if v not in VERSIONS]
 
 
@@ -38,32 +38,6 @@ def identify_targets():
     """Final targets of the identification stage (for `all_targets`)."""
     return (_id_jobs() + [f"{RESULTS}/tables/identification.csv"] + figure(6)
             + _bandwidth_figure())
-
-
-rule tsa_tests:
-    message:
-        "Harmonic removal (TSA of {params.cycles}) on the measured-like {wildcards.test} "
-        "({wildcards.profile}) record, for identification"
-    input:
-        record=f"{RESULTS}/simulate/{{test}}_{{profile}}.nc",
-        code=code("tsa_tests.py"),
-    params:
-        cfg=lambda w: {"tsa": {k: config["tsa"][k] for k in ("n_cycles", "tests", "unbiased")},
-                       "stages": config["gearbox"]["stages"], "signals": _id_signals(),
-                       "keep_below": config["identify"]["tsa_keep_below"]},
-        cycles=lambda w: "+".join(config["tsa"]["tests"]),
-        what=lambda w: f"Measured-like {w.test} ({w.profile})",
-    output:
-        nc=f"{RESULTS}/tsa/tests/{{test}}_{{profile}}.nc",
-    log:
-        f"{RESULTS}/logs/tsa_tests/{{test}}_{{profile}}.log",
-    benchmark:
-        f"{RESULTS}/benchmarks/tsa_tests/{{test}}_{{profile}}.tsv"
-    threads: DECLARED.threads("tsa_tests")
-    resources:
-        **DECLARED.resources("tsa_tests"),
-    script:
-        "../scripts/tsa_tests.py"
 
 
 rule identify:

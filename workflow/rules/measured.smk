@@ -87,7 +87,7 @@ rule tsa_measured:
         "Harmonic removal (TSA of {params.cycles}) on bench record {wildcards.record}"
     input:
         record=rules.measured.output.record,
-        code=code("tsa_tests.py"),
+        code=code("tsa_measured.py"),
     params:
         cfg=lambda w: {"tsa": {k: config["tsa"][k] for k in ("n_cycles", "tests", "unbiased")},
                        "stages": config["gearbox"]["stages"], "signals": _id_signals(),
@@ -104,7 +104,7 @@ rule tsa_measured:
     resources:
         **DECLARED.resources("tsa_measured"),
     script:
-        "../scripts/tsa_tests.py"
+        "../scripts/tsa_measured.py"
 
 
 rule identify_measured:

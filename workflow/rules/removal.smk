@@ -158,24 +158,29 @@ rule figures_removal:
 
 rule removal_tests:
     message:
-        "Harmonic removal by {params.methods} on the measured-like {wildcards.test} "
-        "({wildcards.profile}) record, for identification"
+        "Harmonic removal (TSA of {params.cycles}{params.methods}) on the measured-like "
+        "{wildcards.test} ({wildcards.profile}) record, for identification"
     input:
         record=f"{RESULTS}/simulate/{{test}}_{{profile}}.nc",
-        random=rules.simulate_with_random.output.random,
-        bench=f"{RESULTS}/model/bench.nc",
+        # the removal versions are scored against the random-only twin (TSA is not)
+        random=rules.simulate_with_random.output.random if REMOVAL_VERSIONS else [],
+        bench=f"{RESULTS}/model/bench.nc" if REMOVAL_VERSIONS else [],
         code=code("removal_tests.py"),
     params:
+        tsa_cfg={"tsa": {k: config["tsa"][k] for k in ("n_cycles", "tests", "unbiased")},
+                 "stages": config["gearbox"]["stages"]},
         method_cfg={m: config["removal"][m] for m in REMOVAL_VERSIONS},
         families_cfg={**FAMILIES_CFG, "removal": {"tests": config["removal"]["tests"]}},
         signals=_id_signals(),
         keep_below=config["identify"]["tsa_keep_below"],
         spectra=config["spectra"],
-        methods=", ".join(REMOVAL_VERSIONS),
+        cycles="+".join(config["tsa"]["tests"]),
+        methods="".join(f", {m}" for m in REMOVAL_VERSIONS),
     output:
-        # one job per record runs every removal version (the record, its random-only twin
-        # and their harmonic part read and formed once); one file per method, in the order
-        # of REMOVAL_VERSIONS
+        # one job per record runs TSA and every removal version (the record read once, and
+        # with its random-only twin the harmonic part formed once): the tsa version, then
+        # one file per method in the order of REMOVAL_VERSIONS
+        tsa=f"{RESULTS}/tsa/tests/{{test}}_{{profile}}.nc",
         nc=expand(f"{RESULTS}/removal/tests/{{method}}/{{{{test}}}}_{{{{profile}}}}.nc",
                   method=REMOVAL_VERSIONS),
     log:

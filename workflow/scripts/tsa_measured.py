@@ -1,5 +1,4 @@
-"""Rules `tsa_tests` and `tsa_measured`: harmonic removal on the measured(-like) signals of
-one test record or bench record."""
+"""Rule `tsa_measured`: harmonic removal by TSA on the signals of one bench record."""
 
 from gbpipe import io
 from gbpipe.harmonics import record_residuals
