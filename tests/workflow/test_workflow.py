@@ -55,7 +55,7 @@ def test_changed_tsa_parameter_reruns_exactly_the_jobs_that_use_it(ci_run):
     # tsa.n_cycles is a parameter of the sweep's TSA variants (and their figures) and of
     # the TSA of the test records, hence of identification and its table and figures.
     # Nothing upstream (kinematics, model, simulate, sweep, spectra) nor figures_model /
-    # figures_tests may rerun. 4 TSA variants, 2 identified records (the square speed ramp
+    # figures_tests may rerun. The TSA of the sweep (one job, 4 variants), 2 identified records (the square speed ramp
     # and the multisine test on it), and the harmonic removal of 3 test records (those two
     # and their validation record; one removal_tests job per record runs TSA with every
     # removal version) in the CI config; the design figure shows the bands;
@@ -68,7 +68,7 @@ def test_changed_tsa_parameter_reruns_exactly_the_jobs_that_use_it(ci_run):
     finally:
         overlay.unlink()
     assert planned_jobs(out.stdout + out.stderr) == Counter({
-        "tsa": 4, "figures_harmonics": 1, "removal_tests": 3, "identify": 2,
+        "tsa": 1, "figures_harmonics": 1, "removal_tests": 3, "identify": 2,
         "identification_table": 1, "figures_identify": 1, "figures_design": 1, "fit": 1,
         "figures_fit": 1, "all": 1})
 

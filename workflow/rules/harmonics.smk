@@ -27,28 +27,28 @@ rule spectra:
 
 rule tsa:
     message:
-        "Harmonic removal by TSA on the sweep, variant {wildcards.variant}"
-    wildcard_constraints:
-        variant="|".join(TSA_VARIANTS),
+        "Harmonic removal by TSA on the sweep, variants {params.variants}"
     input:
         sweep=f"{RESULTS}/sweep/sweep.nc",
         bench=f"{RESULTS}/model/bench.nc",
         code=code("tsa.py"),
     params:
-        tsa=lambda w: {"n_cycles": config["tsa"]["n_cycles"],
-                       "unbiased": config["tsa"]["unbiased"],
-                       "averaging": TSA_AVERAGING[w.variant],
-                       "cycles": TSA_VARIANTS[w.variant]},
+        # one job runs every variant on the sweep read once (1.2 M samples); the settings
+        # of each variant, in the order of tsa.variants
+        tsa={v: {"n_cycles": config["tsa"]["n_cycles"], "unbiased": config["tsa"]["unbiased"],
+                 "averaging": TSA_AVERAGING[v], "cycles": cycles}
+             for v, cycles in TSA_VARIANTS.items()},
         spectra=config["spectra"],
         stages=config["gearbox"]["stages"],
         excitation=config["excitation"],
         noise=config["sweep"]["noise"],  # the pulsating torque: the motor family
+        variants=", ".join(TSA_VARIANTS),
     output:
-        nc=f"{RESULTS}/tsa/{{variant}}.nc",
+        nc=expand(f"{RESULTS}/tsa/{{variant}}.nc", variant=list(TSA_VARIANTS)),
     log:
-        f"{RESULTS}/logs/tsa/{{variant}}.log",
+        f"{RESULTS}/logs/tsa.log",
     benchmark:
-        f"{RESULTS}/benchmarks/tsa/{{variant}}.tsv"
+        f"{RESULTS}/benchmarks/tsa.tsv"
     threads: DECLARED.threads("tsa")
     resources:
         **DECLARED.resources("tsa"),
