@@ -1,4 +1,5 @@
-# the test records' config slice (also that of simulate_with_random, removal.smk)
+# the test records' config slice (also that of the campaign rule, removal.smk, which
+# simulates every record the workflow reads in one job; this rule makes any other record)
 SIMULATE_CFG = {k: config[k] for k in ("seed", "gearbox", "bench", "campaign", "noise",
                                        "excitation", "tachometer")}
 
@@ -10,6 +11,7 @@ rule simulate:
         code=code("simulate.py"),
     params:
         cfg=SIMULATE_CFG,
+        records=lambda w: [{"test": w.test, "profile": w.profile, "random": False}],
     output:
         nc=f"{RESULTS}/simulate/{{test}}_{{profile}}.nc",
     log:

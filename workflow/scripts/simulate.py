@@ -1,6 +1,8 @@
-"""Rules `simulate` and `simulate_with_random`: one closed-loop test variant, clean and
-measured-like; with `simulate_with_random` also the same simulation (same seeds) without
-the angle-locked excitation, the random-only twin of the exact separation metric."""
+"""Rules `campaign` and `simulate`: closed-loop test records, clean and measured-like.
+
+`campaign` simulates every record the workflow reads, and the random-only twins (the same
+simulation, same seeds, without the angle-locked excitation) of the exact separation
+metric, in one job; `simulate` makes one record on request."""
 
 from gbpipe import io, simulate
 
@@ -9,16 +11,20 @@ from gbpipe import io, simulate
 
 snakemake = globals()["snakemake"]
 log = io.setup_log(snakemake.log[0])
-w, p, out = snakemake.wildcards, snakemake.params, snakemake.output
-records = {"nc": (p.cfg, f"Closed-loop bench test {w.test}, {w.profile} steps")}
-if "random" in out.keys():
-    records["random"] = (simulate.random_only(p.cfg),
-                         f"Closed-loop bench test {w.test}, {w.profile} steps, random-only "
-                         "(no angle-locked excitation, same seeds)")
-# every record simulated before any file is written: a failure leaves no output
-done = {key: simulate.test(cfg, w.test, w.profile) for key, (cfg, _) in records.items()}
-for key, ds in done.items():
-    io.write(ds, out[key], sources=snakemake.input, stage=snakemake.rule, config=dict(p),
-             wildcards={"test": w.test, "profile": w.profile}, title=records[key][1])
-    log.info("%s/%s (%s): %d samples, %d tachometer pulses", w.test, w.profile, key,
-             ds.time.size, ds.sizes.get("pulse", 0))
+p, out = snakemake.params, snakemake.output
+records, twins = ([r for r in p.records if r["random"] == flag] for flag in (False, True))
+paths = [*out.nc] + ([*out.random] if twins else [])
+# each file is written as soon as it is simulated (atomically): a failed job's outputs are
+# removed by Snakemake, and 20-odd records held until the end would need ~1 GB
+for rec, path in zip(records + twins, paths, strict=True):
+    test, profile = rec["test"], rec["profile"]
+    cfg = simulate.random_only(p.cfg) if rec["random"] else p.cfg
+    ds = simulate.test(cfg, test, profile)
+    what = (", random-only (no angle-locked excitation, same seeds)" if rec["random"]
+            else "")
+    io.write(ds, path, sources=snakemake.input, stage="simulate", config={"cfg": p.cfg},
+             wildcards={"test": test, "profile": profile},
+             title=f"Closed-loop bench test {test}, {profile} steps{what}")
+    log.info("%s/%s%s: %d samples, %d tachometer pulses", test, profile,
+             " (random-only)" if rec["random"] else "", ds.time.size,
+             ds.sizes.get("pulse", 0))
