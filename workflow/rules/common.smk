@@ -1,6 +1,20 @@
 # Shared helpers of the rules: the config slice of each stage (so that `params:` holds
 # exactly what a stage depends on), the library modules a stage uses (so that editing them
-# reruns it) and the list of final targets.
+# reruns it), the identification versions and validation partners several stages read,
+# and the list of final targets.
+from gbpipe.identify import VALIDATION_PARTNER, VERSIONS
+from gbpipe.simulate import base_test
+
+
+# identification versions that are a removal method of their own (rule removal_tests in
+# removal.smk writes them, and the tsa version, in one job per record)
+REMOVAL_VERSIONS = [v for v in config["identify"]["versions"] if v not in VERSIONS]
+
+
+def _partner(test):
+    # the validation record of a test: the mirror of its ramp test (a designed test is
+    # validated on the plain mirror test, data the fit never saw)
+    return VALIDATION_PARTNER[base_test(config, test)]
 
 
 def code(script):

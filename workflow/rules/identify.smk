@@ -1,12 +1,6 @@
 # Identification stage (paper section 3, Fig 6, and its future work: identification after
-# harmonic removal). model (truth.nc) + simulate + removal_tests -> identify
-# {test}_{profile}_{method} -> table + figures.
-from gbpipe.identify import VALIDATION_PARTNER, VERSIONS
-from gbpipe.simulate import base_test
-
-# identification versions that are a removal method of their own (rule removal_tests in
-# removal.smk writes them, and the tsa version, in one job per record)
-REMOVAL_VERSIONS = [v for v in config["identify"]["versions"] if v not in VERSIONS]
+# harmonic removal). model (truth.nc) + campaign + removal_tests -> identify
+# {test}_{profile}_{method} -> table + figures. REMOVAL_VERSIONS and _partner: common.smk.
 
 
 def _id_signals():
@@ -15,12 +9,6 @@ def _id_signals():
     for p in config["identify"]["pairings"]:
         names += [n for n in p["inputs"] + p["outputs"] if n not in names]
     return names
-
-
-def _partner(test):
-    # the validation record of a test: the mirror of its ramp test (a designed test is
-    # validated on the plain mirror test, data the fit never saw)
-    return VALIDATION_PARTNER[base_test(config, test)]
 
 
 def _id_jobs():

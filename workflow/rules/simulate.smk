@@ -1,5 +1,5 @@
-# the test records' config slice (also that of the campaign rule, removal.smk, which
-# simulates every record the workflow reads in one job; this rule makes any other record)
+# the test records' config slice (of `simulate` and of `campaign` below, which simulates
+# every record the workflow reads in one job; `simulate` makes any other record)
 SIMULATE_CFG = {k: config[k] for k in ("seed", "gearbox", "bench", "campaign", "noise",
                                        "excitation", "tachometer")}
 
@@ -23,6 +23,64 @@ rule simulate:
         **DECLARED.resources("simulate"),
     script:
         "../scripts/simulate.py"
+
+
+def _twin_tests():
+    # the records removal_tests scores against a random-only twin: every identified test
+    # and its validation record (rules.identify reads both after each removal version)
+    tests = list(config["identify"]["tests"])
+    return sorted({*tests, *(_partner(t) for t in tests)})
+
+
+def _campaign_records():
+    # every record a stage reads or a target names, as (test, profile): the campaign, the
+    # ramp tests of figures 7-10, and the identified tests with their validation records
+    camp, idc = config["campaign"], config["identify"]
+    records = {(t, p) for t in camp["tests"] for p in camp["profiles"]}
+    records |= {(t, config["figures"]["test_profile"])
+                for t in ("speed_up", "speed_down", "torque_up", "torque_down")}
+    records |= {(t, p) for t in idc["tests"] + [_partner(t) for t in idc["tests"]]
+                for p in idc["profiles"]}
+    return sorted(records)
+
+
+# the records with a random-only twin: those a removal version is scored on
+CAMPAIGN_TWINS = ([(t, p) for t in _twin_tests() for p in config["identify"]["profiles"]]
+                  if REMOVAL_VERSIONS else [])
+
+
+rule campaign:
+    message:
+        "The test campaign: {params.n_records} closed-loop records, clean and measured-like, "
+        "and {params.n_twins} again with the same seeds and no angle-locked excitation "
+        "(random-only)"
+    input:
+        code=code("simulate.py"),
+    params:
+        cfg=SIMULATE_CFG,
+        # in the order of the outputs: every record, then every twin
+        records=[{"test": t, "profile": p, "random": False} for t, p in _campaign_records()]
+        + [{"test": t, "profile": p, "random": True} for t, p in CAMPAIGN_TWINS],
+        n_records=len(_campaign_records()),
+        n_twins=len(CAMPAIGN_TWINS),
+    output:
+        # one job for all: a record simulates in ~0.2 s and writes in ~0.5 s, while a job
+        # of its own cost ~1 s more to start (Python and its imports)
+        nc=[f"{RESULTS}/simulate/{t}_{p}.nc" for t, p in _campaign_records()],
+        random=[f"{RESULTS}/simulate/random/{t}_{p}.nc" for t, p in CAMPAIGN_TWINS],
+    log:
+        f"{RESULTS}/logs/campaign.log",
+    benchmark:
+        f"{RESULTS}/benchmarks/campaign.tsv"
+    threads: DECLARED.threads("campaign")
+    resources:
+        **DECLARED.resources("campaign"),
+    script:
+        "../scripts/simulate.py"
+
+
+# a record of the campaign comes from its one job; `simulate` makes any other on request
+ruleorder: campaign > simulate
 
 
 # the sweep's config slice (also that of sweep_random, removal.smk)
