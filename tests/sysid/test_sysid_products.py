@@ -12,6 +12,7 @@ import pytest
 import scipy.signal as sig
 from sysid_plants import simulate, two_mode_plant
 
+from gbpipe.sysid import excitation, moesp, n4sid, open_loop
 from gbpipe.sysid.hankel import hankel_gram, lagged_products
 from gbpipe.sysid.input_matrices import bd_least_squares
 
@@ -101,3 +102,27 @@ def test_bd_least_squares_recovers_the_plant_from_noise_free_data():
     b, d = bd_least_squares(A, C, np.vstack([u.T, y.T]), 1, True)
     np.testing.assert_allclose(b, B, rtol=1e-10, atol=1e-12)
     np.testing.assert_allclose(d, D, rtol=1e-10)
+
+
+def test_shared_window_products_do_not_leak_between_records():
+    # MOESP and N4SID of one record share its Gram matrix and factor (open_loop keeps
+    # those of the last record) and the input ranks are remembered: a fit must equal the
+    # same fit with nothing remembered, whatever was fitted before it
+    A, B, C, D = two_mode_plant()
+    rng = np.random.default_rng(5)
+    u1, u2 = rng.standard_normal((2, 3000, 1))
+    y1 = simulate(A, B, C, D, u1[:, 0]) + 0.05 * rng.standard_normal((3000, 1))
+    y2 = simulate(A, B, C, D, u2[:, 0]) + 0.05 * rng.standard_normal((3000, 1))
+
+    def fresh(fn, u, y):
+        open_loop._PRODUCTS.clear()
+        excitation._RANKS.clear()
+        return fn(u, y, 4, 10, past=12, feedthrough=True)
+
+    expected = [fresh(fn, u, y) for fn, u, y in
+                ((moesp, u1, y1), (n4sid, u1, y1), (n4sid, u2, y2), (moesp, u1, y2))]
+    got = [fn(u, y, 4, 10, past=12, feedthrough=True) for fn, u, y in
+           ((moesp, u1, y1), (n4sid, u1, y1), (n4sid, u2, y2), (moesp, u1, y2))]
+    for e, g in zip(expected, got, strict=True):
+        for name in ("A", "B", "C", "D", "K", "noise_cov"):
+            np.testing.assert_array_equal(getattr(g, name), getattr(e, name))

@@ -170,30 +170,39 @@ def identify_methods(cfg: Mapping[str, Any], record: xr.Dataset,
             ref = ref_truth or nonparametric_reference(u, y, fs_id, s, r)
             rows.append((p, version, (u, y, uv, yv), ref))
 
-    return {method: _identify_rows(method, rows, dt, s, record, validation)
+    # every method on one row before the next row: MOESP and N4SID of one data set share its
+    # window products (gbpipe.sysid keeps those of the last record)
+    results: dict[str, list[dict[str, Any]]] = {method: [] for method in methods}
+    for p, version, data, ref in rows:
+        for method in methods:
+            results[method].append(_identify_row(method, p, version, data, ref, dt, s))
+    return {method: _method_dataset(method, results[method], dt, s, record, validation)
             for method in methods}
 
 
-def _identify_rows(method: str, rows: list[tuple[Mapping[str, Any], str, tuple[np.ndarray, ...],
-                                                 Reference]],
-                   dt: float, s: Mapping[str, Any], record: xr.Dataset,
-                   validation: xr.Dataset | None) -> xr.Dataset:
-    # fit every pairing x version with one method; the method's dataset
-    results = []
-    for p, version, data, ref in rows:
-        res = {"pairing": p["name"], "version": version, "inputs": list(p["inputs"]),
-               "outputs": list(p["outputs"]), "ref": ref, "model": None}
-        try:
-            _fit_row(res, method, data, dt, s)
-        except (ValueError, RuntimeError, np.linalg.LinAlgError) as exc:
-            res.update(status=f"failed: {type(exc).__name__}: {exc}", model=None)
-        if res["status"] == "ok":
-            log.info("%s %-14s %-5s order %2d: bandwidth %6.1f Hz (vs %s), fit %s %%",
-                     method, p["name"], version, res["model"].order, res["bandwidth"],
-                     ref.kind, np.round(res["fit"], 1))
-        else:
-            log.warning("%s %s/%s %s", method, p["name"], version, res["status"])
-        results.append(res)
+def _identify_row(method: str, p: Mapping[str, Any], version: str,
+                  data: tuple[np.ndarray, ...], ref: Reference, dt: float,
+                  s: Mapping[str, Any]) -> dict[str, Any]:
+    # one pairing x version with one method: its result, "ok" or why it failed
+    res = {"pairing": p["name"], "version": version, "inputs": list(p["inputs"]),
+           "outputs": list(p["outputs"]), "ref": ref, "model": None}
+    try:
+        _fit_row(res, method, data, dt, s)
+    except (ValueError, RuntimeError, np.linalg.LinAlgError) as exc:
+        res.update(status=f"failed: {type(exc).__name__}: {exc}", model=None)
+    if res["status"] == "ok":
+        log.info("%s %-14s %-5s order %2d: bandwidth %6.1f Hz (vs %s), fit %s %%",
+                 method, p["name"], version, res["model"].order, res["bandwidth"],
+                 ref.kind, np.round(res["fit"], 1))
+    else:
+        log.warning("%s %s/%s %s", method, p["name"], version, res["status"])
+    return res
+
+
+def _method_dataset(method: str, results: list[dict[str, Any]], dt: float,
+                    s: Mapping[str, Any], record: xr.Dataset,
+                    validation: xr.Dataset | None) -> xr.Dataset:
+    # the method's dataset from its rows; every row failed: StageError
     if not any(r["status"] == "ok" for r in results):
         failures = "\n".join(f"  {r['pairing']}/{r['version']}: {r['status']}" for r in results)
         raise StageError(f"identify {method} on {record_label(record)}: all {len(results)} "

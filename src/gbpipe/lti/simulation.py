@@ -27,11 +27,12 @@ See docs/architecture.md, "Physics".
 
 from __future__ import annotations
 
-from collections import OrderedDict
 from typing import Any
 
 import numpy as np
 from scipy.signal import cont2discrete
+
+from gbpipe.memo import ArrayMemo, array_key
 
 __all__ = ["dlsim", "lsim"]
 
@@ -43,8 +44,12 @@ _MIN_LIFTED = 64
 _SEGMENT = 16
 # Lifted matrices of the most recent systems: a validation simulates one model over many
 # short segments, and the extended-precision powers cost more than a short segment itself.
-_LIFTED_CACHE: OrderedDict[tuple, tuple] = OrderedDict()
-_LIFTED_CACHE_SIZE = 8
+_LIFTED = ArrayMemo(8)
+# Extended-precision powers of the most recent state matrices (of a system, or of a lifted
+# one in _block_starts): one longdouble product costs ~50 float64 ones, and systems that
+# share A (the state and free-response simulations of one model, the B and x0 regressors
+# of a B, D least squares) or simulate again (the block-start levels) need the same powers.
+_POWERS = ArrayMemo(16)
 
 
 def block_length(n: int, m: int, p: int) -> int:
@@ -73,13 +78,13 @@ def _lifted(a: np.ndarray, b: np.ndarray, c: np.ndarray, d: np.ndarray, L: int
     a, b, c, d = (np.asarray(v, dtype=np.longdouble) for v in (a, b, c, d))
     n, m = b.shape
     p = c.shape[0]
-    powers = np.empty((L + 1, n, n), dtype=np.longdouble)
-    powers[0] = np.eye(n)
-    for k in range(1, L + 1):
-        powers[k] = a @ powers[k - 1]
-    obs = (c @ powers[:L]).reshape(L * p, n).astype(float)   # rows: C Ad^j
+    powers = _powers(a, L)
+    # C = I (a simulation of the states) multiplies nothing: skip its L products
+    identity = p == n and np.array_equal(c, np.eye(n))
+    obs = (powers[:L] if identity else c @ powers[:L]).reshape(L * p, n).astype(float)
     apb = powers[:L] @ b                                          # Ad^k Bd, k < L
-    markov = np.concatenate([d[None], c @ apb[:L - 1]]).astype(float)  # D, C Bd, ...
+    markov = np.concatenate([d[None], apb[:L - 1] if identity else c @ apb[:L - 1]]
+                            ).astype(float)                       # D, C Bd, ...
     lag = np.subtract.outer(np.arange(L), np.arange(L))
     blocks = markov[np.maximum(lag, 0)] * (lag >= 0)[:, :, None, None]  # (L, L, p, m)
     toep = blocks.transpose(0, 2, 1, 3).reshape(L * p, L * m)
@@ -87,21 +92,25 @@ def _lifted(a: np.ndarray, b: np.ndarray, c: np.ndarray, d: np.ndarray, L: int
     return obs, toep, reach, powers[L]
 
 
+def _powers(a: np.ndarray, count: int) -> np.ndarray:
+    """``a^0 .. a^count`` in extended precision, shape (count + 1, n, n), read-only
+    (remembered for the last few matrices: see ``_POWERS``)."""
+    a = np.asarray(a, dtype=np.longdouble)
+
+    def compute() -> np.ndarray:
+        powers = np.empty((count + 1, *a.shape), dtype=np.longdouble)
+        powers[0] = np.eye(a.shape[0])
+        for k in range(1, count + 1):
+            powers[k] = a @ powers[k - 1]
+        return powers
+
+    return _POWERS((count, array_key(a)), compute)
+
+
 def _lifted_cached(a: np.ndarray, b: np.ndarray, c: np.ndarray, d: np.ndarray, L: int
                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """:func:`_lifted`, remembered for the last few systems (keyed by their bytes)."""
-    key = (L, *((v.dtype.str, v.shape, v.tobytes()) for v in (a, b, c, d)))
-    hit = _LIFTED_CACHE.get(key)
-    if hit is None:
-        hit = _lifted(a, b, c, d, L)
-        for arr in hit:
-            arr.setflags(write=False)  # shared between calls: never written
-        _LIFTED_CACHE[key] = hit
-        if len(_LIFTED_CACHE) > _LIFTED_CACHE_SIZE:
-            _LIFTED_CACHE.popitem(last=False)
-    else:
-        _LIFTED_CACHE.move_to_end(key)
-    return hit
+    """:func:`_lifted`, remembered for the last few systems (see ``_LIFTED``)."""
+    return _LIFTED((L, array_key(a, b, c, d)), lambda: _lifted(a, b, c, d, L))
 
 
 def dlsim(a: np.ndarray, b: np.ndarray, c: np.ndarray, d: np.ndarray, u: np.ndarray,
@@ -184,10 +193,7 @@ def _block_starts(a_l: np.ndarray, f: np.ndarray, x: np.ndarray
         return xs, xl.astype(float)
     K = _SEGMENT
     n_seg = nb // K
-    powers = np.empty((K + 1, n, n), dtype=np.longdouble)
-    powers[0] = np.eye(n)
-    for k in range(1, K + 1):
-        powers[k] = a_l @ powers[k - 1]
+    powers = _powers(a_l, K)
     a_t = np.ascontiguousarray(a_l.astype(float).T)
     fs = f[:n_seg * K].reshape(n_seg, K, n)
     xs = np.empty((nb, n))

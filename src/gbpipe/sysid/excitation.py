@@ -27,6 +27,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from gbpipe.errors import ExcitationError
+from gbpipe.memo import ArrayMemo, array_key
 
 __all__ = [
     "PE_RTOL",
@@ -73,11 +74,35 @@ class InputRank:
         return len(self.per_input)
 
 
+# Ranks of the most recent input Gram matrices: the methods, pairings and jackknife fits of
+# one record check the same input again and again, and the eigenvalues cost more than the
+# comparison of the matrix's bytes.
+_RANKS = ArrayMemo(32)
+
+
 def _rank(g: np.ndarray, rtol: float) -> int:
     """Numerical rank of a symmetric positive semi-definite matrix."""
     w = np.linalg.eigvalsh(0.5 * (g + g.T))
     top = float(w[-1]) if w.size else 0.0
     return int(np.sum(w > rtol * top)) if top > 0.0 else 0
+
+
+def _input_rank(g: np.ndarray, n_inputs: int, depth: int, rtol: float) -> InputRank:
+    """:func:`input_hankel_rank` from the input block ``g`` (indexed ``lag * m + input``)."""
+    m = n_inputs
+    lags = np.arange(depth)
+    ranks: dict[tuple[int, ...], int] = {}  # by the inputs kept: one eigenproblem each
+
+    def rank_of(inputs: tuple[int, ...]) -> int:
+        if inputs not in ranks:
+            idx = (lags[:, None] * m + np.array(inputs)[None, :]).ravel()
+            ranks[inputs] = _rank(g[np.ix_(idx, idx)], rtol) if idx.size else 0
+        return ranks[inputs]
+
+    total = rank_of(tuple(range(m)))
+    per = tuple(rank_of((j,)) for j in range(m))
+    unique = tuple(total - rank_of(tuple(k for k in range(m) if k != j)) for j in range(m))
+    return InputRank(depth, total, per, unique)
 
 
 def input_hankel_rank(
@@ -102,15 +127,10 @@ def input_hankel_rank(
     InputRank
     """
     c = gram.shape[0] // depth
-    lags = np.arange(depth)
-    idx = (lags[:, None] * c + np.arange(n_inputs)[None, :]).ravel()
-    total = _rank(gram[np.ix_(idx, idx)], rtol)
-    per = tuple(_rank(gram[np.ix_(lags * c + j, lags * c + j)], rtol) for j in range(n_inputs))
-    unique = []
-    for j in range(n_inputs):
-        rest = idx[idx % c != j]
-        unique.append(total - (_rank(gram[np.ix_(rest, rest)], rtol) if rest.size else 0))
-    return InputRank(depth, total, per, tuple(unique))
+    idx = (np.arange(depth)[:, None] * c + np.arange(n_inputs)[None, :]).ravel()
+    g = gram[np.ix_(idx, idx)]  # every rank below is of a sub-block of it
+    return _RANKS((n_inputs, depth, rtol, array_key(g)),
+                  lambda: _input_rank(g, n_inputs, depth, rtol))
 
 
 def required_rank(order: int, n_inputs: int, depth: int, feedthrough: bool) -> tuple[int, int]:

@@ -20,9 +20,11 @@ differ only in the weighting of that SVD (see :func:`gbpipe.sysid.n4sid`). Then
 from __future__ import annotations
 
 from collections.abc import Callable
+from typing import Any
 
 import numpy as np
 
+from gbpipe.memo import ArrayMemo, array_key
 from gbpipe.sysid.checks import (
     channel_counts,
     check_dt,
@@ -32,13 +34,24 @@ from gbpipe.sysid.checks import (
     prepare,
 )
 from gbpipe.sysid.excitation import excitation_limit
-from gbpipe.sysid.hankel import hankel_gram, lstsq_r, window_r_factor
+from gbpipe.sysid.hankel import hankel_gram, lstsq_r, records, window_r_factor
 from gbpipe.sysid.input_matrices import bd_least_squares
 from gbpipe.sysid.kalman import kalman_gain, stable_predictor_gain
 from gbpipe.sysid.order import check_order_rank, select_order
 from gbpipe.sysid.subspace_model import SubspaceModel, from_scaled
 
 __all__ = ["identify_open_loop", "open_loop_method"]
+
+# The window products of the last records fitted: MOESP and N4SID of one record (same data,
+# windows and factor route) share the Gram matrix and its factor, the costliest steps
+# after the B, D least squares.
+_PRODUCTS = ArrayMemo(4)
+
+
+def _record_products(z: np.ndarray | list[np.ndarray], key: tuple,
+                     compute: Callable[[], Any]) -> Any:
+    """``compute()``, or its remembered value for the same record and ``key``."""
+    return _PRODUCTS((key, array_key(*records(z))), compute)
 
 
 def open_loop_method(weighting: str, doc: str, module: str) -> Callable[..., SubspaceModel]:
@@ -132,12 +145,14 @@ def identify_open_loop(
         + [(lag, ch) for lag in range(p) for ch in range(c)]
         + [(p + i, m + ch) for i in range(f) for ch in range(l_)]
     )
-    gram = hankel_gram(data.z, p + f)
+    gram = _record_products(data.z, ("gram", p + f), lambda: hankel_gram(data.z, p + f))
     pe_rank, pe_cap = excitation_limit(
         gram, m, p + f, n_fixed, feedthrough, f"past {p} + horizon {f}"
     )
-    r, n_win = window_r_factor(data.z, p + f, cols, gram=gram, n_predicted=f * l_,
-                               method=factor)
+    r, n_win = _record_products(
+        data.z, ("factor", p, f, m, factor),
+        lambda: window_r_factor(data.z, p + f, cols, gram=gram, n_predicted=f * l_,
+                                method=factor))
     fm, fl = f * m, f * l_
     i_yf = np.arange(fm + pc, fm + pc + fl)
 
