@@ -54,11 +54,12 @@ def planned_jobs(output: str) -> Counter:
 def test_changed_tsa_parameter_reruns_exactly_the_jobs_that_use_it(ci_run):
     # tsa.n_cycles is a parameter of the sweep's TSA variants (and their figures) and of
     # the TSA of the test records, hence of identification and its table and figures.
-    # Nothing upstream (kinematics, model, simulate, sweep, spectra) nor figures_model /
-    # figures_tests may rerun. The TSA of the sweep (one job, 4 variants), 2 identified records (the square speed ramp
-    # and the multisine test on it), and the harmonic removal of 3 test records (those two
-    # and their validation record; one removal_tests job per record runs TSA with every
-    # removal version) in the CI config; the design figure shows the bands;
+    # Nothing upstream (kinematics, model, campaign, sweep, spectra) nor figures_model /
+    # figures_tests may rerun. The TSA of the sweep (one job, 4 variants), 2 identified
+    # records (the square speed ramp and the multisine test on it), and the harmonic
+    # removal of 3 test records (those two and their validation record; one removal_tests
+    # job per record runs TSA with every removal version) in the CI config; the design
+    # figure shows the bands;
     # the physical fit reads the PBSID models of the multisine test (and its figure). One
     # identify job per record fits every method (its outputs: one file per method).
     overlay = ci_run / "config" / "tsa_change.yaml"
