@@ -6,9 +6,16 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from harmonic_sweeps import FS, MESH, make_sweep
+from scipy import ndimage
 
 from gbpipe import harmonics
 from gbpipe.errors import DataError, PulseError
+from gbpipe.harmonics.angle import (
+    angle_map,
+    evaluate_spline,
+    resample_map_to_angle,
+    spline_coefficients,
+)
 from gbpipe.harmonics.tracking import uniform_projection
 
 
@@ -153,6 +160,35 @@ def test_resample_to_angle_does_not_alias(sw):
     core = slice(64 * 5, -64 * 5)
     ref = np.cos(3 * (theta + 2 * np.pi))
     assert np.sqrt(np.mean((xa[core] - ref[core]) ** 2)) < 1e-2  # tone power 0.5 -> gone
+
+
+@pytest.mark.parametrize("n", [1, 2, 3, 4, 7, 40_000])
+def test_evaluate_spline_equals_map_coordinates(n):
+    # the chunked four-tap evaluation against scipy's, mirror boundary, the ends included
+    # (and more positions than one chunk, in no order)
+    rng = np.random.default_rng(n)
+    coef = spline_coefficients(rng.standard_normal(n))
+    pos = np.concatenate([rng.uniform(0, n - 1, 3 * n + 50), [0.0, n - 1.0, 0.5 * (n - 1)]])
+    ref = ndimage.map_coordinates(coef, pos[None, :], order=3, prefilter=False,
+                                  mode="mirror")
+    np.testing.assert_allclose(evaluate_spline(coef, pos), ref, rtol=0, atol=1e-14)
+
+
+def test_channels_resample_and_track_as_each_alone(sw):
+    # several signals of one record at once: one angle grid, the same result as one by one
+    x = np.c_[sw["x"], np.cos(3 * sw["theta"]), np.sin(MESH * sw["theta"])]
+    amap = angle_map(x[:, 0], FS, sw["pulses"], 1, "pchip", 0.0)[-1]
+    theta, xa = resample_map_to_angle(x, amap, 64)
+    assert xa.shape == (theta.size, 3)
+    segments = [[0.0, 40 * np.pi], [10.0, 200.0], [0.0, 1.0]]  # the last: too short, NaN
+    amp = harmonics.order_amplitudes(x, FS, sw["pulses"], [3, MESH], segments=segments)
+    assert amp.shape == (3, 3, 2)
+    for j in range(3):
+        np.testing.assert_array_equal(
+            xa[:, j], resample_map_to_angle(x[:, j], amap, 64)[1])
+        np.testing.assert_array_equal(amp[:, j], harmonics.order_amplitudes(
+            x[:, j], FS, sw["pulses"], [3, MESH], segments=segments))
+    assert np.isnan(amp[2]).all()
 
 
 def test_order_amplitudes_exact_non_integer(sw):

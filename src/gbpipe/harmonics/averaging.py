@@ -172,7 +172,7 @@ class CyclePlan:
             row = np.where(k < self.B * n_cycles, k // n_cycles, self.n_rows - 1)
         # Periodic cubic spline via flat padded rows: row r occupies [r (M+3), (r+1)(M+3))
         # with 1 wrapped coefficient before and 2 after, so 4-tap evaluation never leaves
-        # its row and one 1-D map_coordinates call serves all blocks.
+        # its row and one 1-D spline evaluation serves all blocks.
         self.back_pos = row * (M + 3) + 1.0 + u
         self.i_lo, self.i_hi = amap.i_lo, amap.i_hi
         # Samples of the partial end cycle are not in any average (for `unbiased`).
@@ -212,6 +212,5 @@ class CyclePlan:
         coef = ndimage.spline_filter1d(means, order=3, axis=1, mode="grid-wrap")
         padded = np.concatenate([coef[:, -1:], coef, coef[:, :2]], axis=1).ravel()
         s = np.zeros(self.n)
-        s[self.i_lo:self.i_hi + 1] = ndimage.map_coordinates(
-            padded, self.back_pos[None, :], order=3, prefilter=False, mode="nearest")
+        s[self.i_lo:self.i_hi + 1] = evaluate_spline(padded, self.back_pos)
         return s, means

@@ -150,9 +150,10 @@ def family_attenuation(
     all_orders = np.concatenate(list(fam.values()))
     whole = np.array([[0.0, theta_rev[-1] + TWO_PI]])
     segments = np.vstack([whole, seg])
-    kw = dict(pulses_per_rev=ppr, t0=t0, method=method, segments=segments)
-    pb = np.abs(order_amplitudes(b, fs, p, all_orders, **kw)) ** 2 / 2
-    pa = np.abs(order_amplitudes(a, fs, p, all_orders, **kw)) ** 2 / 2
+    # both signals in one call: one angle grid and one window per segment for the two
+    amp = order_amplitudes(np.column_stack([b, a]), fs, p, all_orders, pulses_per_rev=ppr,
+                           t0=t0, method=method, segments=segments)
+    pb, pa = np.abs(amp[:, 0]) ** 2 / 2, np.abs(amp[:, 1]) ** 2 / 2
     # Per-bin power: segments of a bin weighted by their length (revolutions).
     length = np.diff(segments[1:], axis=1)[:, 0]
     nb = edges.size - 1

@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 
 from gbpipe.harmonics.angle import angle_map, resample_map_to_angle
-from gbpipe.harmonics.checks import as_order, get_window
+from gbpipe.harmonics.checks import as_order, as_signal, get_window
 from gbpipe.harmonics.tacho import AngleMethod
 from gbpipe.units import TWO_PI
 
@@ -38,7 +38,10 @@ def order_amplitudes(
 
     Parameters
     ----------
-    x, fs, pulse_times, pulses_per_rev, t0, method
+    x : array_like, shape (n,) or (n, k)
+        Signal, or k signals of one record as columns (they share the angle grid and
+        the windows), sample ``i`` at ``t0 + i / fs``.
+    fs, pulse_times, pulses_per_rev, t0, method
         As in :func:`gbpipe.harmonics.resample_to_angle`.
     orders : array_like, shape (m,)
         Orders [-] (float or Fraction).
@@ -52,25 +55,39 @@ def order_amplitudes(
     -------
     numpy.ndarray, complex, shape (s, m) (or (m,) without ``segments``)
         Peak amplitude and phase of ``A cos(m theta + phi)`` -> ``A exp(1j phi)``. NaN for
-        segments shorter than 2 revolutions.
+        segments shorter than 2 revolutions. For ``x`` of shape (n, k): shape (s, k, m)
+        (or (k, m)), the signals in the order of the columns.
     """
     ords = np.array([as_order(o, "orders") for o in np.atleast_1d(orders)], dtype=float)
-    x, fs, p, ppr, amap = angle_map(x, fs, pulse_times, pulses_per_rev, method, t0)
+    xs = np.asarray(x, dtype=float)
+    multi = xs.ndim == 2
+    if multi:  # every column checked; the first one carries the angle map's checks
+        for j in range(xs.shape[1]):
+            as_signal(xs[:, j], f"x[:, {j}]")
+    _, fs, p, ppr, amap = angle_map(xs[:, 0] if multi else xs, fs, pulse_times,
+                                    pulses_per_rev, method, t0)
     # Orders up to the largest requested need 2 * max samples per rev; use plenty more.
     spr_min = int(np.ceil(8 * ords.max())) + 8
     spr = max(spr_min, 32)
-    theta, xa = resample_map_to_angle(x, amap, spr)
+    theta, xa = resample_map_to_angle(xs, amap, spr)
+    xa = xa if multi else xa[:, None]
     single = segments is None
     seg = (np.array([[0.0, theta[-1]]]) if single
            else np.atleast_2d(np.asarray(segments, dtype=float)))
-    out = np.full((seg.shape[0], ords.size), np.nan + 0j)
+    out = np.full((seg.shape[0], xa.shape[1], ords.size), np.nan + 0j)
     step = TWO_PI / spr  # the constant-angle grid is uniform: theta[i] = i * step
+    windows: dict[int, np.ndarray] = {}  # by length: segments of one length share theirs
     for s, (a, b) in enumerate(seg):  # loop over segments (a handful), not cycles
         i0, i1 = np.searchsorted(theta, [a, b])
         if (i1 - i0) < 2 * spr:
             continue
-        w = get_window(window, i1 - i0)
-        out[s] = 2.0 * uniform_projection(w * xa[i0:i1], i0 * step, step, ords) / w.sum()
+        w = windows.get(i1 - i0)
+        if w is None:
+            w = windows[i1 - i0] = get_window(window, i1 - i0)
+        for j in range(xa.shape[1]):
+            out[s, j] = (2.0 * uniform_projection(w * xa[i0:i1, j], i0 * step, step, ords)
+                         / w.sum())
+    out = out if multi else out[:, 0]
     return out[0] if single else out
 
 

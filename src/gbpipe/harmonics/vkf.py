@@ -110,9 +110,11 @@ class EnvelopeFilter:
                 ab[k, j:j + n - s] += self.w * (self.d[j] * self.d[j + k])
         self.factor = cholesky_banded(ab, lower=True)
 
-    def solve(self, b: np.ndarray) -> np.ndarray:
-        """Solve (1) for real columns ``b`` (n, m)."""
-        return cho_solve_banded((self.factor, True), b, check_finite=False)
+    def solve(self, b: np.ndarray, *, overwrite: bool = False) -> np.ndarray:
+        """Solve (1) for real columns ``b`` (n, m); ``overwrite``: ``b`` may be solved in
+        place (it is, when Fortran-ordered)."""
+        return cho_solve_banded((self.factor, True), b, overwrite_b=overwrite,
+                                check_finite=False)
 
 
 def residual_vkf(x: np.ndarray, fs: float, pulse_times: np.ndarray, families: Families,
@@ -175,19 +177,34 @@ def residual_vkf(x: np.ndarray, fs: float, pulse_times: np.ndarray, families: Fa
     orders = np.concatenate([[0.0], orders])
     r = y.copy()
     waves = np.zeros((orders.size, n))
+    # Work arrays, filled in place (a pass over one order touches the record ~15 times):
+    # the target, the new waveform, the phase, its cosine and sine, and the demodulated
+    # target as two rows, whose transpose is the Fortran-ordered right-hand side that the
+    # banded solver overwrites.
+    target, new, buf, cos, sin = (np.empty(n) for _ in range(5))
+    rhs = np.empty((2, n))
     for _ in range(max_iter):
         before = r.copy()
         for k, o in enumerate(orders):
-            target = r + waves[k]
+            np.add(r, waves[k], out=target)
             if k == 0:
-                new = filt.solve(target[:, None])[:, 0]
+                new[:] = filt.solve(target[:, None])[:, 0]
             else:
-                ph = o * rec.theta
-                cos, sin = np.cos(ph), np.sin(ph)
-                # envelope of target * exp(-1j ph): real and imaginary parts as 2 columns
-                c = filt.solve(np.column_stack([target * cos, -target * sin]))
-                new = 2.0 * (c[:, 0] * cos - c[:, 1] * sin)
-            r -= new - waves[k]
+                np.multiply(o, rec.theta, out=buf)
+                np.cos(buf, out=cos)
+                np.sin(buf, out=sin)
+                # envelope c of target * exp(-1j ph), solved as (Re c, -Im c) from
+                # (target cos, target sin): negating a right-hand side negates the
+                # solution exactly
+                np.multiply(target, cos, out=rhs[0])
+                np.multiply(target, sin, out=rhs[1])
+                c = filt.solve(rhs.T, overwrite=True)
+                np.multiply(c[:, 0], cos, out=new)  # 2 Re(c exp(1j ph))
+                np.multiply(c[:, 1], sin, out=buf)
+                new += buf
+                new *= 2.0
+            np.subtract(new, waves[k], out=buf)
+            r -= buf
             waves[k] = new
         # Judge the residual, not the orders: close orders trade a shared component back
         # and forth (their split is barely determined) while their sum, hence the
