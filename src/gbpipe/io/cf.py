@@ -46,7 +46,10 @@ Units
       is a placeholder there, not a claim that the elements are dimensionless, and the
       comment says exactly that.
 Encoding
-    NetCDF-4 (HDF5) with zlib level 4 on data variables; no ``_FillValue`` on coordinates
+    NetCDF-4 (HDF5), uncompressed: the bulk of every output is noise-like float time series,
+    which zlib (level 4, shuffle) shrank by 12 % (bench records, about 7 of 8 bytes per
+    value) to 38 % (simulated records) at 20 s of the full run's 160 s of CPU and half the
+    time of a bench-record conversion. No ``_FillValue`` on coordinates
     (CF forbids missing coordinate values), on integers or on strings; strings as
     NetCDF-4 ``string`` (allowed since CF-1.9). The in-memory ``encoding`` of the input
     (e.g. left over from a file it was read from) is ignored: this writer alone decides
@@ -202,12 +205,8 @@ def encoding(out: xr.Dataset, float32: bool) -> dict[str, dict[str, Any]]:
         enc: dict[str, Any] = {}
         if name in out.coords:
             enc["_FillValue"] = None
-        elif var.dtype.kind in "fc":
-            enc.update(zlib=True, complevel=4)
-            if float32 and var.dtype == np.float64:
-                enc["dtype"] = "float32"
-        elif var.dtype.kind in "iub":
-            enc.update(zlib=True, complevel=4)
+        elif var.dtype.kind in "fc" and float32 and var.dtype == np.float64:
+            enc["dtype"] = "float32"
         if var.dtype.kind in "iubUS" or var.dtype == object:
             enc["_FillValue"] = None
         encoding[name] = enc
