@@ -47,9 +47,9 @@ Units
       comment says exactly that.
 Encoding
     NetCDF-4 (HDF5), uncompressed: the bulk of every output is noise-like float time series,
-    which zlib (level 4, shuffle) shrank by 12 % (bench records, about 7 of 8 bytes per
-    value) to 38 % (simulated records) at 20 s of the full run's 160 s of CPU and half the
-    time of a bench-record conversion. No ``_FillValue`` on coordinates
+    which zlib (level 4, shuffle) shrank by 30 % (a converted bench record) to 38 % (a
+    simulated record) at 20 s of the full run's 160 s of CPU and 83 % of a bench-record
+    conversion's time (docs/measured.md). No ``_FillValue`` on coordinates
     (CF forbids missing coordinate values), on integers or on strings; strings as
     NetCDF-4 ``string`` (allowed since CF-1.9). The in-memory ``encoding`` of the input
     (e.g. left over from a file it was read from) is ignored: this writer alone decides
