@@ -19,27 +19,6 @@ def removal_targets():
     return [f"{RESULTS}/tables/removal.csv"] + figure("removal_tradeoff")
 
 
-rule sweep_random:
-    message:
-        "The sweep again with the same seeds and no angle-locked excitation (random-only)"
-    input:
-        code=code("sweep.py"),
-    params:
-        cfg=SWEEP_CFG,
-        random_only=True,
-    output:
-        nc=f"{RESULTS}/sweep/sweep_random.nc",
-    log:
-        f"{RESULTS}/logs/sweep_random.log",
-    benchmark:
-        f"{RESULTS}/benchmarks/sweep_random.tsv"
-    threads: DECLARED.threads("sweep_random")
-    resources:
-        **DECLARED.resources("sweep_random"),
-    script:
-        "../scripts/sweep.py"
-
-
 def _removal_test_jobs():
     idc = config["identify"]
     return expand(f"{RESULTS}/removal/tests/{{m}}/{{t}}_{{p}}.nc", m=REMOVAL_VERSIONS,
@@ -52,7 +31,7 @@ rule removal:
         "random-only sweep"
     input:
         sweep=rules.sweep.output.nc,
-        random=rules.sweep_random.output.nc,
+        random=rules.sweep.output.random,
         bench=f"{RESULTS}/model/bench.nc",
         code=code("removal.py"),
     params:

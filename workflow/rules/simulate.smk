@@ -83,21 +83,26 @@ rule campaign:
 ruleorder: campaign > simulate
 
 
-# the sweep's config slice (also that of sweep_random, removal.smk)
+# the sweep's config slice
 SWEEP_CFG = {k: config[k] for k in ("seed", "gearbox", "bench", "campaign", "noise",
                                     "excitation", "tachometer", "sweep")}
+# the removal comparison (removal.methods) scores against the random-only sweep
+SWEEP_TWIN = bool(config["removal"]["methods"])
 
 
 rule sweep:
     message:
-        "Speed sweep at constant torque with harmonics and tachometer pulses"
+        "Speed sweep at constant torque with harmonics and tachometer pulses{params.twin}"
     input:
         code=code("sweep.py"),
     params:
         cfg=SWEEP_CFG,
-        random_only=False,
+        twin=(", and again with the same seeds and no angle-locked excitation (random-only)"
+              if SWEEP_TWIN else ""),
     output:
+        # one job for both: the twin repeats the sweep with the excitation off
         nc=f"{RESULTS}/sweep/sweep.nc",
+        random=f"{RESULTS}/sweep/sweep_random.nc" if SWEEP_TWIN else [],
     log:
         f"{RESULTS}/logs/sweep.log",
     benchmark:

@@ -101,7 +101,7 @@ def compare_method(sweep: xr.Dataset, random_only: xr.Dataset, bench: xr.Dataset
     if n.shape != x.shape or float(random_only.attrs["sample_rate"]) != fs:
         raise DataError("random-only sweep", f"has {n.size} samples at "
                         f"{random_only.attrs['sample_rate']} Hz, the sweep {x.size} at {fs} Hz:"
-                        " simulate both from the same config (rule sweep_random)")
+                        " simulate both from the same config (rule sweep)")
     pulses = np.asarray(sweep.pulse_time.values, dtype=float)
     ppr = int(sweep.attrs["pulses_per_rev"])
     modes = watched_modes(bench, spec)
