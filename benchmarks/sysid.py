@@ -29,6 +29,9 @@ the median relative FRF error against the truth over 1-380 Hz; then the validati
 40 s record in 2 s segments, each from its least-squares initial state): ``estimate_x0`` +
 ``simulate`` per segment against the batched ``SubspaceModel.simulate_segments``.
 
+Each method runs ``--repeats`` times (default 3), each time in a fresh process; the
+fastest run's times are reported with the largest peak memory of the runs.
+
 Usage: ``OMP_NUM_THREADS=1 python benchmarks/sysid.py [--budget 240] [--sizes 1e4 1e5 1e6]``;
 quick check: ``--sizes 1e4 --methods "gbpipe pbsid" --closed-loop 2e4``; stage size:
 ``--stage-size``.
@@ -179,6 +182,14 @@ def run_worker(method: str, path: Path, timeout: float) -> dict:
     return json.loads(lines[-1])
 
 
+def _fastest(runs: list[dict]) -> dict:
+    """The run with the least wall time, with the largest peak memory of all runs (each
+    run is a cold call in a fresh process: nothing is remembered between them)."""
+    best = dict(min(runs, key=lambda r: r["time"]))
+    best["peak_mb"] = max(r["peak_mb"] for r in runs)
+    return best
+
+
 def closed_loop_table(n: int) -> None:
     u, y, y0, snr = make_closed_loop(n)
     print(f"\nClosed loop, PI controller, white reference, N = {n:.0e}, SNR = {snr:.1f} dB "
@@ -272,6 +283,10 @@ def main() -> None:
     ap.add_argument("--budget", type=float, default=240.0,
                     help="largest estimated run time (s) for which a peer is still run")
     ap.add_argument("--methods", nargs="+", default=list(METHODS))
+    ap.add_argument("--repeats", type=int, default=3,
+                    help="fresh processes per method and N; the fastest is reported (a "
+                         "single call of gbpipe at N = 1e6 takes 25-75 ms, and scheduling "
+                         "noise on a shared machine is of that size)")
     ap.add_argument("--closed-loop", type=float, default=1e5,
                     help="samples of the closed-loop comparison (0: skip it)")
     ap.add_argument("--stage-size", action="store_true",
@@ -304,7 +319,9 @@ def main() -> None:
                 elif est_t is not None and est_t > args.budget and not method.startswith("gb"):
                     row = f"skipped (est. {est_t:.0f} s)"
                 else:
-                    res = run_worker(method, path, timeout=max(3 * args.budget, 60))
+                    runs = [run_worker(method, path, timeout=max(3 * args.budget, 60))
+                            for _ in range(args.repeats)]
+                    res = next((r for r in runs if "error" in r), None) or _fastest(runs)
                     if "error" in res:
                         row = res["error"]
                     else:

@@ -3,12 +3,13 @@
 One identify job fits three methods x four data versions x seven pairings of one record:
 the same input Gram blocks, state-matrix powers and lifted simulation matrices come back
 again and again. :class:`ArrayMemo` remembers the last few results, keyed by the bytes of
-the arrays they were computed from (:func:`array_key`), so a repeat costs a comparison of
+the arrays they were computed from (:func:`array_key`), so a repeat costs a hash of those
 bytes instead of the computation. A leaf module: numpy only.
 """
 
 from __future__ import annotations
 
+import hashlib
 from collections import OrderedDict
 from collections.abc import Callable, Hashable
 from typing import TypeVar
@@ -21,8 +22,12 @@ T = TypeVar("T")
 
 
 def array_key(*arrays: np.ndarray) -> tuple:
-    """A hashable key equal for arrays of equal dtype, shape and bytes (and only then)."""
-    return tuple((a.dtype.str, a.shape, a.tobytes())
+    """A hashable key equal for arrays of equal dtype, shape and bytes: their SHA-256.
+
+    A digest, not the bytes themselves: a key of a whole record would otherwise hold a
+    copy of it (16 MB at N = 1e6) for as long as the result is remembered.
+    """
+    return tuple((a.dtype.str, a.shape, hashlib.sha256(memoryview(a)).digest())
                  for a in (np.ascontiguousarray(v) for v in arrays))
 
 
