@@ -1,28 +1,7 @@
-# the test records' config slice (of `simulate` and of `campaign` below, which simulates
-# every record the workflow reads in one job; `simulate` makes any other record)
+# the test records' config slice (rule `campaign`: every record the workflow reads, in one
+# job)
 SIMULATE_CFG = {k: config[k] for k in ("seed", "gearbox", "bench", "campaign", "noise",
                                        "excitation", "tachometer")}
-
-
-rule simulate:
-    message:
-        "Closed-loop test {wildcards.test} ({wildcards.profile} steps), clean and measured-like"
-    input:
-        code=code("simulate.py"),
-    params:
-        cfg=SIMULATE_CFG,
-        records=lambda w: [{"test": w.test, "profile": w.profile, "random": False}],
-    output:
-        nc=f"{RESULTS}/simulate/{{test}}_{{profile}}.nc",
-    log:
-        f"{RESULTS}/logs/simulate/{{test}}_{{profile}}.log",
-    benchmark:
-        f"{RESULTS}/benchmarks/simulate/{{test}}_{{profile}}.tsv"
-    threads: DECLARED.threads("simulate")
-    resources:
-        **DECLARED.resources("simulate"),
-    script:
-        "../scripts/simulate.py"
 
 
 def _twin_tests():
@@ -77,10 +56,6 @@ rule campaign:
         **DECLARED.resources("campaign"),
     script:
         "../scripts/simulate.py"
-
-
-# a record of the campaign comes from its one job; `simulate` makes any other on request
-ruleorder: campaign > simulate
 
 
 # the sweep's config slice

@@ -1,8 +1,6 @@
-"""Rules `campaign` and `simulate`: closed-loop test records, clean and measured-like.
-
-`campaign` simulates every record the workflow reads, and the random-only twins (the same
-simulation, same seeds, without the angle-locked excitation) of the exact separation
-metric, in one job; `simulate` makes one record on request."""
+"""Rule `campaign`: every closed-loop test record the workflow reads, clean and
+measured-like, and the random-only twins (the same simulation, same seeds, without the
+angle-locked excitation) of the exact separation metric, in one job."""
 
 from gbpipe import io, simulate
 
@@ -13,7 +11,7 @@ snakemake = globals()["snakemake"]
 log = io.setup_log(snakemake.log[0])
 p, out = snakemake.params, snakemake.output
 records, twins = ([r for r in p.records if r["random"] == flag] for flag in (False, True))
-paths = [*out.nc] + ([*out.random] if twins else [])
+paths = [*out.nc, *out.random]
 # each file is written as soon as it is simulated (atomically): a failed job's outputs are
 # removed by Snakemake, and 20-odd records held until the end would need ~1 GB
 for rec, path in zip(records + twins, paths, strict=True):
