@@ -154,9 +154,9 @@ def test_quadratic_average_noise_loss_is_its_centre_weight():
 
 
 def test_record_residuals_remove_a_locked_harmonic_and_keep_the_step(ci_cfg):
-    """Constant-speed HSS at 18 Hz, a 3rd-order harmonic and a torque step: the tsa_tests
-    stage (hss + mesh2 removed) must take the harmonic and keep the step, which lies below
-    the split frequency and is added back untouched."""
+    """Constant-speed HSS at 18 Hz, a 3rd-order harmonic and a torque step: the TSA of the
+    removal_tests stage (hss + mesh2 removed) must take the harmonic and keep the step, which
+    lies below the split frequency and is added back untouched."""
     fs, duration, f0 = 2000.0, 12.0, 18.0
     t = np.arange(int(duration * fs)) / fs
     theta = 2 * np.pi * f0 * t

@@ -14,7 +14,7 @@ Modules, each one concept, lowest first:
 ``tsa``        time-synchronous averaging residuals: one family, joint or cascade
 ``families``   exact cycle orders, excitation families, structural modes
 ``metrics``    family attenuation, mode-band change, removal metrics
-``stage``      what the workflow calls (spectra, tsa, tsa_tests stages)
+``stage``      what the workflow calls (spectra, tsa, removal_tests stages)
 =============  ==========================================================================
 
 Removal beyond TSA (issue 16):

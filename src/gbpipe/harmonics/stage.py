@@ -3,7 +3,7 @@
 * :func:`sweep_waterfalls` -- rule ``spectra``: waterfalls of the raw sweep;
 * :func:`tsa_variant` -- rule ``tsa``: one TSA variant on the sweep (residual, its
   waterfalls, removal metrics, and the plain cascade beside a joint removal);
-* :func:`record_residuals` -- rule ``tsa_tests``: measured-like signals of a test record
+* :func:`record_residuals` -- rule ``removal_tests``: measured-like signals of a record
   after removal of the ``tsa.tests`` families, for identification (any removal method:
   :func:`split_residuals`);
 * :func:`remove`, :func:`waterfalls`, :func:`variant_metrics` -- their building blocks.
@@ -287,7 +287,7 @@ def split_residuals(record: xr.Dataset, names: Sequence[str],
 def record_residuals(record: xr.Dataset, names: Sequence[str],
                      stages: Sequence[Mapping[str, Any]], tsa_cfg: Mapping[str, Any],
                      keep_below: float) -> xr.Dataset:
-    """Measured-like signals of a test record after joint TSA removal (``tsa_tests``).
+    """Measured-like signals of a test record after joint TSA removal (``removal_tests``).
 
     Parameters
     ----------

@@ -1,7 +1,7 @@
 """Identification stage: subspace models of the bench from test records vs the true model.
 
 The true FRFs and modes come from the model stage's ``truth.nc`` (data, not model code);
-the records after harmonic removal from the ``tsa_tests`` and ``removal_tests`` stages
+the records after harmonic removal from the ``removal_tests`` stage
 (:func:`gbpipe.harmonics.record_residuals`). See docs/architecture.md, "Stage graph".
 
 Public API

@@ -8,7 +8,7 @@ The data versions of a record (``VERSIONS``, plus one per removal method named i
   sensor noise), as a bench would log them;
 * ``tsa``: the measured-like signals after removal of the configured harmonic families
   (``tsa.tests``) by joint block time-synchronous averaging with the record's own GB1 HSS
-  tachometer (the ``tsa_tests`` stage, :func:`gbpipe.harmonics.record_residuals`);
+  tachometer (the ``removal_tests`` stage, :func:`gbpipe.harmonics.record_residuals`);
 * ``vkf``, ``regression``, ``drs``, ``cepstrum``: the measured-like signals after removal
   of the same families by that method (the ``removal_tests`` stage,
   :mod:`gbpipe.harmonics.removal`).
@@ -174,7 +174,7 @@ def version_signals(ds: xr.Dataset, names: Sequence[str], version: str,
         ``clean``, ``raw``, or a harmonic-removal version (``tsa``, ``vkf``, ...) whose
         output for this record is ``removed``.
     removed : xarray.Dataset, optional
-        The record after harmonic removal (``tsa_tests`` or ``removal_tests`` output:
+        The record after harmonic removal (``removal_tests`` output:
         one variable per signal); needed for every version but ``clean`` and ``raw``.
 
     Raises

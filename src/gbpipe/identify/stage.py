@@ -115,7 +115,7 @@ def identify_methods(cfg: Mapping[str, Any], record: xr.Dataset,
         The methods, each fitted on the same conditioned data.
     removed : mapping str -> (xarray.Dataset, xarray.Dataset or None), optional
         Per harmonic-removal version (``tsa``, ``vkf``, ...): the record and the
-        validation record after that removal (``tsa_tests`` or ``removal_tests``
+        validation record after that removal (``removal_tests``
         outputs; the second None without a validation record). Required for every
         version in ``identify.versions`` but ``clean`` and ``raw``.
 
@@ -171,7 +171,7 @@ def identify_methods(cfg: Mapping[str, Any], record: xr.Dataset,
             rows.append((p, version, (u, y, uv, yv), ref))
 
     # every method on one row before the next row: MOESP and N4SID of one data set share its
-    # window products (gbpipe.sysid keeps those of the last record)
+    # window products (gbpipe.sysid remembers them: gbpipe.memo)
     results: dict[str, list[dict[str, Any]]] = {method: [] for method in methods}
     for p, version, data, ref in rows:
         for method in methods:
