@@ -43,7 +43,7 @@ rule campaign:
         n_records=len(_campaign_records()),
         n_twins=len(CAMPAIGN_TWINS),
     output:
-        # one job for all: a record simulates in ~0.2 s and writes in ~0.5 s, while a job
+        # one job for all: a record simulates in ~0.2 s and writes in ~0.1 s, while a job
         # of its own cost ~1 s more to start (Python and its imports)
         nc=[f"{RESULTS}/simulate/{t}_{p}.nc" for t, p in _campaign_records()],
         random=[f"{RESULTS}/simulate/random/{t}_{p}.nc" for t, p in CAMPAIGN_TWINS],
