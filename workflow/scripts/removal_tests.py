@@ -44,7 +44,10 @@ io.write(tsa, snakemake.output.tsa, sources=[i.record, *i.code], stage="removal_
          config={"tsa": p.tsa_cfg["tsa"], "stages": p.tsa_cfg["stages"],
                  "signals": p.signals, "keep_below": p.keep_below},
          wildcards=wildcards, title=f"{what} after TSA harmonic removal")
+# each removal version's file: the config slice it depends on (not TSA's)
+slice_keys = ("method_cfg", "families_cfg", "signals", "keep_below", "spectra")
+config = {k: getattr(p, k) for k in slice_keys}
 for (method, ds), path in zip(done.items(), snakemake.output.nc, strict=True):
-    io.write(ds, path, sources=snakemake.input, stage="removal_tests", config=dict(p),
+    io.write(ds, path, sources=snakemake.input, stage="removal_tests", config=config,
              wildcards={**wildcards, "method": method},
              title=f"{what} after {method} harmonic removal")
