@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import ast
 import importlib
+import os
 import pkgutil
 import re
 import subprocess
@@ -36,6 +37,22 @@ def test_import_linter_contract_holds():
     assert res.returncode == 0, res.stdout[-3000:] + res.stderr[-2000:]
     kept = re.search(r"Contracts: (\d+) kept, (\d+) broken", res.stdout)
     assert kept and int(kept.group(1)) >= 5 and kept.group(2) == "0", res.stdout[-2000:]
+
+
+def test_import_linter_checks_this_tree_whatever_gbpipe_is_installed(tmp_path):
+    # lint-imports imports the root package to find it. An environment with another gbpipe
+    # first on its path (an older clone installed, here a stub without gbpipe.memo) must
+    # not change what is checked: the root symlink gbpipe -> src/gbpipe, found first from
+    # the working directory, makes lint-imports analyse this checkout's source
+    assert (ROOT / "gbpipe").resolve() == SRC
+    stale = tmp_path / "gbpipe"
+    stale.mkdir()
+    (stale / "__init__.py").write_text("")
+    env = {**os.environ, "PYTHONPATH": str(tmp_path)}
+    res = subprocess.run(["lint-imports", "--no-cache"], cwd=ROOT, capture_output=True,
+                         text=True, env=env)
+    assert res.returncode == 0, res.stdout[-3000:] + res.stderr[-2000:]
+    assert re.search(r"Contracts: \d+ kept, 0 broken", res.stdout), res.stdout[-2000:]
 
 
 @pytest.mark.parametrize("path", MODULES, ids=_rel)
