@@ -23,6 +23,7 @@ def _campaign_records():
     return sorted(records)
 
 
+CAMPAIGN_RECORDS = _campaign_records()
 # the records with a random-only twin: those a removal version is scored on
 CAMPAIGN_TWINS = ([(t, p) for t in _twin_tests() for p in config["identify"]["profiles"]]
                   if REMOVAL_VERSIONS else [])
@@ -38,14 +39,14 @@ rule campaign:
     params:
         cfg=SIMULATE_CFG,
         # in the order of the outputs: every record, then every twin
-        records=[{"test": t, "profile": p, "random": False} for t, p in _campaign_records()]
+        records=[{"test": t, "profile": p, "random": False} for t, p in CAMPAIGN_RECORDS]
         + [{"test": t, "profile": p, "random": True} for t, p in CAMPAIGN_TWINS],
-        n_records=len(_campaign_records()),
+        n_records=len(CAMPAIGN_RECORDS),
         n_twins=len(CAMPAIGN_TWINS),
     output:
         # one job for all: a record simulates in ~0.2 s and writes in ~0.1 s, while a job
         # of its own cost ~1 s more to start (Python and its imports)
-        nc=[f"{RESULTS}/simulate/{t}_{p}.nc" for t, p in _campaign_records()],
+        nc=[f"{RESULTS}/simulate/{t}_{p}.nc" for t, p in CAMPAIGN_RECORDS],
         random=[f"{RESULTS}/simulate/random/{t}_{p}.nc" for t, p in CAMPAIGN_TWINS],
     log:
         f"{RESULTS}/logs/campaign.log",

@@ -10,11 +10,10 @@ from gbpipe import io, simulate
 snakemake = globals()["snakemake"]
 log = io.setup_log(snakemake.log[0])
 p, out = snakemake.params, snakemake.output
-records, twins = ([r for r in p.records if r["random"] == flag] for flag in (False, True))
-paths = [*out.nc, *out.random]
-# each file is written as soon as it is simulated (atomically): a failed job's outputs are
-# removed by Snakemake, and 20-odd records held until the end would need ~1 GB
-for rec, path in zip(records + twins, paths, strict=True):
+# params.records is in the order of the outputs: every record, then every twin. Each file
+# is written as soon as it is simulated (atomically): a failed job's outputs are removed by
+# Snakemake, and 20-odd records held until the end would need ~1 GB
+for rec, path in zip(p.records, [*out.nc, *out.random], strict=True):
     test, profile = rec["test"], rec["profile"]
     cfg = simulate.random_only(p.cfg) if rec["random"] else p.cfg
     ds = simulate.test(cfg, test, profile)
