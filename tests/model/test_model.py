@@ -133,3 +133,22 @@ def test_elastic_mount_adds_housing_mode(cfg):
     fixed, _ = model.gearbox_mechanism(validate(merge(cfg, FIXED)))
     elastic, _ = model.gearbox_mechanism(cfg)
     assert elastic.undamped_frequencies().size == fixed.undamped_frequencies().size + 1
+
+
+@pytest.mark.parametrize("which", ["cfg", "cfg_example"])
+def test_one_pass_spring_terms_equal_per_spring_ones(which, request):
+    # the fit's assembly takes every spring's twist, K, C and error input in one pass; each
+    # must be the same numbers as the per-spring definitions
+    mech, _ = model.bench_mechanism(request.getfixturevalue(which))
+    twist = mech.twist_maps()
+    K, C = mech.spring_matrices(twist)
+    k_sum, c_sum = np.zeros_like(K), np.zeros_like(C)
+    for s in mech.springs:
+        h = mech.twist_map(s)
+        assert np.array_equal(twist[s.name], h)
+        k_sum += s.stiffness * np.outer(h, h)
+        c_sum += s.damping * np.outer(h, h)
+    assert np.array_equal(K, k_sum) and np.array_equal(C, c_sum)
+    names = [s.name for s in mech.springs]
+    for name, e in zip(names, mech.angle_error_inputs(names, twist), strict=True):
+        assert np.array_equal(e, -mech.spring(name).stiffness * twist[name])

@@ -11,6 +11,17 @@ from gbpipe.simulate import base_test
 REMOVAL_VERSIONS = [v for v in config["identify"]["versions"] if v not in VERSIONS]
 
 
+# Scheduling priorities for runs on few cores. Snakemake's greedy scheduler otherwise takes
+# the ready job with the largest input files first: the figures of the model and the tests
+# ran before the sweep, and the figures of the sweep before the fit, whose chains then
+# ended the CI run on 2 cores alone. First the chain that sets the wall time: the model and
+# the records, their harmonic removal, identification, its table and predicted bands (design),
+# the physical fit and its figure; then the sweep's chain (sweep, spectra, TSA, removal); the figures and tables
+# off both fill the gaps (priority 0).
+CRITICAL_PATH = 2
+SWEEP_PATH = 1
+
+
 def _partner(test):
     # the validation record of a test: the mirror of its ramp test (a designed test is
     # validated on the plain mirror test, data the fit never saw)

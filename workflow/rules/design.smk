@@ -44,6 +44,7 @@ rule design:
         f"{RESULTS}/logs/design.log",
     benchmark:
         f"{RESULTS}/benchmarks/design.tsv"
+    priority: CRITICAL_PATH
     threads: DECLARED.threads("design")
     resources:
         **DECLARED.resources("design"),

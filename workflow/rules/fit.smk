@@ -55,6 +55,7 @@ rule fit:
         f"{RESULTS}/logs/fit/{{record}}.log",
     benchmark:
         f"{RESULTS}/benchmarks/fit/{{record}}.tsv"
+    priority: CRITICAL_PATH
     threads: DECLARED.threads("fit")
     resources:
         **DECLARED.resources("fit"),
@@ -82,6 +83,7 @@ rule figures_fit:
         f"{RESULTS}/logs/figures_fit/{{record}}.log",
     benchmark:
         f"{RESULTS}/benchmarks/figures_fit/{{record}}.tsv"
+    priority: CRITICAL_PATH
     threads: DECLARED.threads("figures_fit")
     resources:
         **DECLARED.resources("figures_fit"),

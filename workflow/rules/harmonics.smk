@@ -18,6 +18,7 @@ rule spectra:
         f"{RESULTS}/logs/spectra.log",
     benchmark:
         f"{RESULTS}/benchmarks/spectra.tsv"
+    priority: SWEEP_PATH
     threads: DECLARED.threads("spectra")
     resources:
         **DECLARED.resources("spectra"),
@@ -49,6 +50,7 @@ rule tsa:
         f"{RESULTS}/logs/tsa.log",
     benchmark:
         f"{RESULTS}/benchmarks/tsa.tsv"
+    priority: SWEEP_PATH
     threads: DECLARED.threads("tsa")
     resources:
         **DECLARED.resources("tsa"),

@@ -59,6 +59,7 @@ rule identify:
         f"{RESULTS}/logs/identify/{{test}}_{{profile}}.log",
     benchmark:
         f"{RESULTS}/benchmarks/identify/{{test}}_{{profile}}.tsv"
+    priority: CRITICAL_PATH
     threads: DECLARED.threads("identify")
     resources:
         **DECLARED.resources("identify"),
@@ -80,6 +81,7 @@ rule identification_table:
         f"{RESULTS}/logs/identification_table.log",
     benchmark:
         f"{RESULTS}/benchmarks/identification_table.tsv"
+    priority: CRITICAL_PATH
     threads: DECLARED.threads("identification_table")
     resources:
         **DECLARED.resources("identification_table"),

@@ -16,6 +16,7 @@ rule model:
         f"{RESULTS}/logs/model.log",
     benchmark:
         f"{RESULTS}/benchmarks/model.tsv"
+    priority: CRITICAL_PATH
     threads: DECLARED.threads("model")
     resources:
         **DECLARED.resources("model"),

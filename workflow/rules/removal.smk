@@ -47,6 +47,7 @@ rule removal:
         f"{RESULTS}/logs/removal.log",
     benchmark:
         f"{RESULTS}/benchmarks/removal.tsv"
+    priority: SWEEP_PATH
     threads: DECLARED.threads("removal")
     resources:
         **DECLARED.resources("removal"),
@@ -99,15 +100,17 @@ rule figures_removal:
 rule removal_tests:
     message:
         "Harmonic removal (TSA of {params.cycles}{params.methods}) on the measured-like "
-        "{wildcards.test} ({wildcards.profile}) record, for identification"
+        "records identified and their validation records ({params.n_records}), for "
+        "identification"
     input:
-        record=f"{RESULTS}/simulate/{{test}}_{{profile}}.nc",
+        record=[f"{RESULTS}/simulate/{t}_{p}.nc" for t, p in REMOVAL_RECORDS],
         # the removal versions are scored against the random-only twin (TSA is not)
-        random=(f"{RESULTS}/simulate/random/{{test}}_{{profile}}.nc" if REMOVAL_VERSIONS
-                else []),
+        random=[f"{RESULTS}/simulate/random/{t}_{p}.nc" for t, p in CAMPAIGN_TWINS],
         bench=f"{RESULTS}/model/bench.nc" if REMOVAL_VERSIONS else [],
         code=code("removal_tests.py"),
     params:
+        records=REMOVAL_RECORDS,
+        n_records=len(REMOVAL_RECORDS),
         tsa_cfg={"tsa": {k: config["tsa"][k] for k in ("n_cycles", "tests", "unbiased")},
                  "stages": config["gearbox"]["stages"]},
         method_cfg={m: config["removal"][m] for m in REMOVAL_VERSIONS},
@@ -118,16 +121,18 @@ rule removal_tests:
         cycles="+".join(config["tsa"]["tests"]),
         methods="".join(f", {m}" for m in REMOVAL_VERSIONS),
     output:
-        # one job per record runs TSA and every removal version (the record read once, and
-        # with its random-only twin the harmonic part formed once): the tsa version, then
-        # one file per method in the order of REMOVAL_VERSIONS
-        tsa=f"{RESULTS}/tsa/tests/{{test}}_{{profile}}.nc",
-        nc=expand(f"{RESULTS}/removal/tests/{{method}}/{{{{test}}}}_{{{{profile}}}}.nc",
-                  method=REMOVAL_VERSIONS),
+        # one job for every record (each read once, and with its random-only twin the
+        # harmonic part formed once): a record takes ~2 s here, while a job of its own
+        # costs ~1 s more to start (Python and its imports). Per record in the order of
+        # params.records: the tsa version, and one file per method of REMOVAL_VERSIONS
+        tsa=[f"{RESULTS}/tsa/tests/{t}_{p}.nc" for t, p in REMOVAL_RECORDS],
+        nc=[f"{RESULTS}/removal/tests/{m}/{t}_{p}.nc" for t, p in REMOVAL_RECORDS
+            for m in REMOVAL_VERSIONS],
     log:
-        f"{RESULTS}/logs/removal_tests/{{test}}_{{profile}}.log",
+        f"{RESULTS}/logs/removal_tests.log",
     benchmark:
-        f"{RESULTS}/benchmarks/removal_tests/{{test}}_{{profile}}.tsv"
+        f"{RESULTS}/benchmarks/removal_tests.tsv"
+    priority: CRITICAL_PATH
     threads: DECLARED.threads("removal_tests")
     resources:
         **DECLARED.resources("removal_tests"),

@@ -5,8 +5,8 @@ SIMULATE_CFG = {k: config[k] for k in ("seed", "gearbox", "bench", "campaign", "
 
 
 def _twin_tests():
-    # the records removal_tests scores against a random-only twin: every identified test
-    # and its validation record (rules.identify reads both after each removal version)
+    # every identified test and its validation record (rules.identify reads both after
+    # TSA and after each removal version)
     tests = list(config["identify"]["tests"])
     return sorted({*tests, *(_partner(t) for t in tests)})
 
@@ -24,9 +24,11 @@ def _campaign_records():
 
 
 CAMPAIGN_RECORDS = _campaign_records()
+# the records of rule removal_tests (TSA and every removal version): every identified test
+# and its validation record, on every identified profile
+REMOVAL_RECORDS = [(t, p) for t in _twin_tests() for p in config["identify"]["profiles"]]
 # the records with a random-only twin: those a removal version is scored on
-CAMPAIGN_TWINS = ([(t, p) for t in _twin_tests() for p in config["identify"]["profiles"]]
-                  if REMOVAL_VERSIONS else [])
+CAMPAIGN_TWINS = REMOVAL_RECORDS if REMOVAL_VERSIONS else []
 
 
 rule campaign:
@@ -52,6 +54,7 @@ rule campaign:
         f"{RESULTS}/logs/campaign.log",
     benchmark:
         f"{RESULTS}/benchmarks/campaign.tsv"
+    priority: CRITICAL_PATH
     threads: DECLARED.threads("campaign")
     resources:
         **DECLARED.resources("campaign"),
@@ -83,6 +86,7 @@ rule sweep:
         f"{RESULTS}/logs/sweep.log",
     benchmark:
         f"{RESULTS}/benchmarks/sweep.tsv"
+    priority: SWEEP_PATH
     threads: DECLARED.threads("sweep")
     resources:
         **DECLARED.resources("sweep"),

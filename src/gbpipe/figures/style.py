@@ -39,5 +39,8 @@ def save(fig, stem: str | os.PathLike) -> list[Path]:
         with atomic_path(path) as tmp:
             fig.savefig(tmp, format=ext)
         out.append(path)
+        # the PDF keeps the layout the PNG's draw computed: the constrained layout is
+        # solved once per figure, not once per file (about a fifth of a figure's time)
+        fig.set_layout_engine("none")
     plt.close(fig)
     return out

@@ -10,7 +10,6 @@ from __future__ import annotations
 from collections.abc import Mapping
 from typing import Any
 
-from gbpipe.kinematics import parse_stages
 from gbpipe.lti import NamedSS
 from gbpipe.model.drivetrain import bench_mechanism, gearbox_mechanism
 from gbpipe.model.statespace import close_bench_loops, mechanism_ss
@@ -35,7 +34,7 @@ def gearbox_ss(cfg: Mapping[str, Any]) -> NamedSS:
         coordinates. Figure 3 is ``torque_hss → speed_lss``.
     """
     mech, ports = gearbox_mechanism(cfg)
-    n = len(parse_stages(cfg["gearbox"]["stages"]))
+    n = len(cfg["gearbox"]["stages"])      # parsed (validated) by gearbox_mechanism
     torques = {"torque_hss": (ports["hss"], 1.0), "torque_lss": (ports["lss"], 1.0)}
     errors = {f"te_mesh{i}": f"shaft{i}" for i in range(1, n + 1)}
     speeds = {"speed_lss": ports["lss"], "speed_hss": ports["hss"]}
@@ -47,7 +46,7 @@ def gearbox_ss(cfg: Mapping[str, Any]) -> NamedSS:
 
 def _plant(cfg: Mapping[str, Any]) -> NamedSS:
     mech, p = bench_mechanism(cfg)
-    n = len(parse_stages(cfg["gearbox"]["stages"]))
+    n = len(cfg["gearbox"]["stages"])      # parsed (validated) by bench_mechanism
     torques = {"motor_torque_driver": ("driver_motor", 1.0),
                "motor_torque_driven": ("driven_motor", -1.0)}   # braking torque
     errors: dict[str, str] = {}

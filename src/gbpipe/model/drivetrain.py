@@ -25,6 +25,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from fractions import Fraction
+from functools import lru_cache
 from typing import Any
 
 import numpy as np
@@ -77,10 +78,29 @@ def _stage_constraints(st: Stage) -> dict[str, tuple[Fraction, Fraction]]:
     return {"wheel": (Fraction(1), Fraction(0)), "pinion": (r, 1 - r)}
 
 
-def _add_gearbox(mech: Mechanism, gb: Mapping[str, Any], prefix: str, group: str,
-                 cols: list[list[tuple[int, float]]]) -> dict[str, str]:
-    """Append one gearbox's bodies, springs and constraint columns; return port names."""
-    stages = parse_stages(gb["stages"])
+def _stage_numbers(st: Stage) -> tuple[dict[str, tuple[float, float]], float]:
+    """:func:`_stage_constraints` and the stage ratio as floats (a shared, read-only dict).
+
+    Cached by tooth counts: a fit assembles the same stages once per model evaluation,
+    and the exact fractions were a noticeable share of that.
+    """
+    return _numbers_of(st.type, tuple(st.teeth.items()), st.planets)
+
+
+@lru_cache(maxsize=64)
+def _numbers_of(kind: str, teeth: tuple[tuple[str, int], ...], planets: int
+                ) -> tuple[dict[str, tuple[float, float]], float]:
+    st = Stage(kind, dict(teeth), planets)
+    return ({m: (float(a), float(b)) for m, (a, b) in _stage_constraints(st).items()},
+            float(st.ratio))
+
+
+def _add_gearbox(mech: Mechanism, gb: Mapping[str, Any], stages: list[Stage], prefix: str,
+                 group: str, cols: list[list[tuple[int, float]]]) -> dict[str, str]:
+    """Append one gearbox's bodies, springs and constraint columns; return port names.
+
+    ``stages`` is ``parse_stages(gb["stages"])`` (parsed once for both bench gearboxes).
+    """
     elastic = gb["housing"]["mount"] == "elastic"
     xi_s = float(gb["damping_ratio"]["shaft"])
 
@@ -95,19 +115,19 @@ def _add_gearbox(mech: Mechanism, gb: Mapping[str, Any], prefix: str, group: str
     for i, st in enumerate(stages, start=1):
         c_in = len(mech.coords)
         mech.coords.append(f"{prefix}stage{i}")
-        cons = _stage_constraints(st)
+        cons, ratio = _stage_numbers(st)
         for body in _stage_bodies(prefix, i, st, gb["inertia"][i - 1], group):
             member = body.name[len(prefix):-len(str(i))]
             alpha, beta = cons[member]
-            entries = [(c_in, float(alpha))]
+            entries = [(c_in, alpha)]
             if coord_housing is not None and beta != 0:
-                entries.append((coord_housing, float(beta)))
+                entries.append((coord_housing, beta))
             mech.bodies.append(body)
             cols.append(entries)
         mech.meshes.append({
             "name": f"{prefix}mesh{i}", "stage": i, "type": st.type, "group": group,
             "members": [f"{prefix}{m}{i}" for m in cons],
-            "ratio": float(st.ratio),
+            "ratio": ratio,
         })
     c_fl = len(mech.coords)
     mech.coords.append(f"{prefix}flange")
@@ -141,33 +161,34 @@ def _finish(mech: Mechanism, cols: list[list[tuple[int, float]]]) -> Mechanism:
     return mech
 
 
-def _group_inertia_at(mech: Mechanism, body: str) -> float:
-    """Inertia of the rigid group containing ``body``, referred to ``body``'s speed.
+def _group_inertias(mech: Mechanism) -> np.ndarray:
+    """Per body: inertia of the rigid group containing it, referred to its speed [kg·m²].
 
     The group is every body driven by the same independent coordinate (housing held);
-    kinetic energy ½ Σ J_b (∂θ_b/∂q)² ω_q² expressed at the speed of ``body``.
+    kinetic energy ½ Σ J_b (∂θ_b/∂q)² ω_q² expressed at the speed of the body. A housing,
+    or a body that moves with several coordinates, counts alone (its own inertia).
     """
-    idx = mech.body_index[body]
-    housing_cols = [i for i, c in enumerate(mech.coords) if c.endswith("housing")]
     t = mech.T.copy()
-    t[:, housing_cols] = 0.0
-    cols = np.nonzero(t[idx])[0]
-    if len(cols) != 1:
-        return mech.bodies[idx].inertia
-    c = cols[0]
+    t[:, [i for i, c in enumerate(mech.coords) if c.endswith("housing")]] = 0.0
     j = np.array([b.inertia for b in mech.bodies])
-    if mech.bodies[idx].kind == "housing":
-        return mech.bodies[idx].inertia
-    j_q = float(np.sum(j * t[:, c] ** 2))
-    return j_q / t[idx, c] ** 2
+    # each group's inertia at its coordinate's speed, once for all the bodies in it (one
+    # contiguous row per coordinate: each sum as np.sum of that column alone)
+    j_q = np.ascontiguousarray((j[:, None] * t ** 2).T).sum(axis=1)
+    rows = np.nonzero((np.count_nonzero(t, axis=1) == 1)
+                      & np.array([b.kind != "housing" for b in mech.bodies]))[0]
+    c = np.argmax(t[rows] != 0, axis=1)
+    out = j.copy()
+    out[rows] = j_q[c] / t[rows, c] ** 2
+    return out
 
 
 def _set_damping(mech: Mechanism) -> None:
+    idx = mech.body_index
+    inertia = _group_inertias(mech)
     for s in mech.springs:
-        ends = [b for b in s.incidence if b in mech.body_index]
-        ja = _group_inertia_at(mech, ends[0])
-        jb = _group_inertia_at(mech, ends[1]) if len(ends) > 1 else None
-        s.damping = damping_coefficient(s.stiffness, ja, jb, s.damping_ratio)
+        ends = [idx[b] for b in s.incidence if b in idx]
+        jb = inertia[ends[1]] if len(ends) > 1 else None
+        s.damping = damping_coefficient(s.stiffness, inertia[ends[0]], jb, s.damping_ratio)
 
 
 def gearbox_mechanism(cfg: Mapping[str, Any]) -> tuple[Mechanism, dict[str, str]]:
@@ -185,7 +206,8 @@ def gearbox_mechanism(cfg: Mapping[str, Any]) -> tuple[Mechanism, dict[str, str]
     """
     mech = Mechanism()
     cols: list[list[tuple[int, float]]] = []
-    ports = _add_gearbox(mech, cfg["gearbox"], "", "gb", cols)
+    stages = parse_stages(cfg["gearbox"]["stages"])
+    ports = _add_gearbox(mech, cfg["gearbox"], stages, "", "gb", cols)
     return _finish(mech, cols), ports
 
 
@@ -205,8 +227,9 @@ def bench_mechanism(cfg: Mapping[str, Any]) -> tuple[Mechanism, dict[str, str]]:
     mech.bodies.append(Body("driver_motor", float(bench["motor_inertia"]["driver"]),
                             "motor", "bench"))
     cols.append([(0, 1.0)])
-    p2 = _add_gearbox(mech, cfg["gearbox"], "gb2.", "gb2", cols)
-    p1 = _add_gearbox(mech, cfg["gearbox"], "gb1.", "gb1", cols)
+    stages = parse_stages(cfg["gearbox"]["stages"])
+    p2 = _add_gearbox(mech, cfg["gearbox"], stages, "gb2.", "gb2", cols)
+    p1 = _add_gearbox(mech, cfg["gearbox"], stages, "gb1.", "gb1", cols)
     c = len(mech.coords)
     mech.coords.append("driven_motor")
     mech.bodies.append(Body("driven_motor", float(bench["motor_inertia"]["driven"]),

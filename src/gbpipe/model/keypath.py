@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import re
 from collections.abc import Mapping, Sequence
+from functools import lru_cache
 from typing import Any
 
 from gbpipe.errors import ConfigError
@@ -27,6 +28,12 @@ def parse_path(path: str) -> list[str | int]:
     ConfigError
         An empty or malformed path (e.g. ``"gearbox..inertia"``, ``"inertia[x]"``).
     """
+    return list(_parse(path))
+
+
+@lru_cache(maxsize=256)
+def _parse(path: str) -> tuple[str | int, ...]:
+    # cached: the fit sets the same few paths once per model evaluation
     parts: list[str | int] = []
     pos = 0
     for m in _TOKEN.finditer(path):
@@ -38,7 +45,7 @@ def parse_path(path: str) -> list[str | int]:
     if not parts or pos != len(path):
         raise ConfigError(path, "not a key path: write keys joined by '.' and list "
                                 "indices as [i], e.g. 'gearbox.stiffness[1]'")
-    return parts
+    return tuple(parts)
 
 
 def _child(node: Any, key: str | int, path: str) -> Any:

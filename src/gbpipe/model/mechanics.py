@@ -16,6 +16,7 @@ angle in the gear constraint.
 
 from __future__ import annotations
 
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -107,16 +108,20 @@ class Mechanism:
 
     def incidence_vector(self, spring: Spring) -> np.ndarray:
         """Incidence of a spring over the physical angles (ground entries dropped)."""
-        idx = self.body_index
-        g = np.zeros(len(self.bodies))
-        for name, coef in spring.incidence.items():
-            if name in idx:
-                g[idx[name]] += coef
-        return g
+        return _incidence([spring], self.body_index, len(self.bodies))[0]
 
     def twist_map(self, spring: Spring) -> np.ndarray:
         """Row vector mapping ``q`` to the spring's twist [rad]."""
         return self.incidence_vector(spring) @ self.T
+
+    def twist_maps(self) -> dict[str, np.ndarray]:
+        """Every spring's :meth:`twist_map`, by spring name (in the order of ``springs``).
+
+        One body index serves all springs: a fit assembles the mechanism per model
+        evaluation, and rebuilding the index per spring was a large share of that.
+        """
+        rows = _incidence(self.springs, self.body_index, len(self.bodies)) @ self.T
+        return {s.name: h for s, h in zip(self.springs, rows, strict=True)}
 
     @property
     def mass_matrix(self) -> np.ndarray:
@@ -127,20 +132,31 @@ class Mechanism:
     @property
     def stiffness_matrix(self) -> np.ndarray:
         """Reduced stiffness matrix [N·m/rad]."""
-        return self._spring_matrix("stiffness")
+        return self.spring_matrices()[0]
 
     @property
     def damping_matrix(self) -> np.ndarray:
         """Reduced damping matrix [N·m·s/rad]."""
-        return self._spring_matrix("damping")
+        return self.spring_matrices()[1]
 
-    def _spring_matrix(self, attr: str) -> np.ndarray:
+    def spring_matrices(self, twist: Mapping[str, np.ndarray] | None = None
+                        ) -> tuple[np.ndarray, np.ndarray]:
+        """Reduced stiffness [N·m/rad] and damping [N·m·s/rad] matrices in one pass.
+
+        Parameters
+        ----------
+        twist : mapping, optional
+            :meth:`twist_maps`, when the caller has them already.
+        """
+        twist = self.twist_maps() if twist is None else twist
         n = len(self.coords)
-        out = np.zeros((n, n))
-        for s in self.springs:
-            h = self.twist_map(s)
-            out += getattr(s, attr) * np.outer(h, h)
-        return out
+        h = np.array([twist[s.name] for s in self.springs]).reshape(len(self.springs), n)
+        hh = h[:, :, None] * h[:, None, :]          # each spring's outer product
+        # np.sum along a slow axis adds term by term, in spring order (pairwise summation
+        # is for the fast axis): the numbers of a loop over the springs, in fewer steps
+        k = np.sum(np.array([s.stiffness for s in self.springs])[:, None, None] * hh, axis=0)
+        c = np.sum(np.array([s.damping for s in self.springs])[:, None, None] * hh, axis=0)
+        return k, c
 
     def torque_input(self, body: str, sign: float = 1.0) -> np.ndarray:
         """Generalised force of a torque [N·m] applied on a physical body: ``Tᵀ e_body``."""
@@ -152,8 +168,24 @@ class Mechanism:
         With rigid gears a transmission error is an angle added to the twist of the
         shaft next to the mesh, so it acts as the torque ``−k·e`` through that spring.
         """
-        s = self.spring(spring)
-        return -s.stiffness * self.twist_map(s)
+        return self.angle_error_inputs([spring])[0]
+
+    def angle_error_inputs(self, springs: Sequence[str],
+                           twist: Mapping[str, np.ndarray] | None = None) -> list[np.ndarray]:
+        """:meth:`angle_error_input` of several springs.
+
+        Parameters
+        ----------
+        springs : sequence of str
+            Spring names.
+        twist : mapping, optional
+            :meth:`twist_maps`, when the caller has them already.
+        """
+        out = []
+        for name in springs:
+            s = self.spring(name)
+            out.append(-s.stiffness * (self.twist_map(s) if twist is None else twist[name]))
+        return out
 
     def spring(self, name: str) -> Spring:
         for s in self.springs:
@@ -173,3 +205,14 @@ class Mechanism:
         scale = max(abs(w2).max(), 1.0)
         w2 = w2[w2 > 1e-9 * scale]
         return np.sqrt(w2) / (2 * np.pi)
+
+
+def _incidence(springs: Sequence[Spring], idx: Mapping[str, int], n_bodies: int
+               ) -> np.ndarray:
+    """:meth:`Mechanism.incidence_vector` of each spring as rows, the body index given."""
+    g = np.zeros((len(springs), n_bodies))
+    for i, spring in enumerate(springs):
+        for name, coef in spring.incidence.items():
+            if name in idx:
+                g[i, idx[name]] += coef
+    return g

@@ -41,45 +41,47 @@ def mechanism_ss(mech: Mechanism, torque_inputs: Mapping[str, tuple[str, float]]
     angle_outputs : mapping, optional
         Output name → body: its angle [rad].
     """
-    M, K, Cd = mech.mass_matrix, mech.stiffness_matrix, mech.damping_matrix
+    # the index maps and twist maps once for everything below (a fit builds this per
+    # model evaluation)
+    idx = mech.body_index
+    twist = mech.twist_maps()
+    M = mech.mass_matrix
+    K, Cd = mech.spring_matrices(twist)
     n = len(mech.coords)
     Minv = np.linalg.inv(M)
     Bq = np.column_stack(
         [mech.torque_input(b, s) for b, s in torque_inputs.values()]
-        + [mech.angle_error_input(sp) for sp in error_inputs.values()]
+        + mech.angle_error_inputs(list(error_inputs.values()), twist)
     ) if (torque_inputs or error_inputs) else np.zeros((n, 0))
-    A = np.block([[np.zeros((n, n)), np.eye(n)], [-Minv @ K, -Minv @ Cd]])
+    A = np.zeros((2 * n, 2 * n))
+    A[:n, n:] = np.eye(n)
+    A[n:, :n] = -Minv @ K
+    A[n:, n:] = -Minv @ Cd
     B = np.vstack([np.zeros_like(Bq), Minv @ Bq])
     inputs = list(torque_inputs) + list(error_inputs)
-    rows, drows, outputs = [], [], []
-    idx = mech.body_index
-    for name, body in speed_outputs.items():
-        rows.append(np.concatenate([np.zeros(n), mech.T[idx[body]]]))
-        drows.append(np.zeros(len(inputs)))
-        outputs.append(name)
-    for name, (spring, sign) in torque_outputs.items():
-        s = mech.spring(spring)
-        h = mech.twist_map(s)
-        rows.append(sign * np.concatenate([s.stiffness * h, s.damping * h]))
-        d = np.zeros(len(inputs))
-        for j, sp in enumerate(error_inputs.values()):
+    angle_outputs = angle_outputs or {}
+    outputs = list(speed_outputs) + list(torque_outputs) + list(angle_outputs)
+    C = np.zeros((len(outputs), 2 * n))
+    D = np.zeros((len(outputs), len(inputs)))
+    for i, body in enumerate(speed_outputs.values()):
+        C[i, n:] = mech.T[idx[body]]
+    for i, (spring, sign) in enumerate(torque_outputs.values(), start=len(speed_outputs)):
+        s, h = mech.spring(spring), twist[spring]
+        C[i, :n] = sign * (s.stiffness * h)
+        C[i, n:] = sign * (s.damping * h)
+        for j, sp in enumerate(error_inputs.values(), start=len(torque_inputs)):
             if sp == spring:
-                d[len(torque_inputs) + j] = sign * s.stiffness
-        drows.append(d)
-        outputs.append(name)
-    for name, body in (angle_outputs or {}).items():
-        rows.append(np.concatenate([mech.T[idx[body]], np.zeros(n)]))
-        drows.append(np.zeros(len(inputs)))
-        outputs.append(name)
-    C = np.array(rows).reshape(len(outputs), 2 * n)
-    D = np.array(drows).reshape(len(outputs), len(inputs))
+                D[i, j] = sign * s.stiffness
+    for i, body in enumerate(angle_outputs.values(),
+                             start=len(speed_outputs) + len(torque_outputs)):
+        C[i, :n] = mech.T[idx[body]]
     states = [f"angle[{c}]" for c in mech.coords] + [f"speed[{c}]" for c in mech.coords]
     units = {s: ("rad" if s.startswith("angle") else "rad/s") for s in states}
     units.update({u: "N m" for u in torque_inputs})
     units.update({u: "rad" for u in error_inputs})
     units.update({o: "rad/s" for o in speed_outputs})
     units.update({o: "N m" for o in torque_outputs})
-    units.update({o: "rad" for o in (angle_outputs or {})})
+    units.update({o: "rad" for o in angle_outputs})
     return NamedSS(A, B, C, D, states, inputs, outputs, units)
 
 
