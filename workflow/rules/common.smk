@@ -14,10 +14,10 @@ REMOVAL_VERSIONS = [v for v in config["identify"]["versions"] if v not in VERSIO
 # Scheduling priorities for runs on few cores. Snakemake's greedy scheduler otherwise takes
 # the ready job with the largest input files first: the figures of the model and the tests
 # ran before the sweep, and the figures of the sweep before the fit, whose chains then
-# ended the CI run on 2 cores alone. First the chain that sets the wall time: the model and
-# the records, their harmonic removal, identification, its table and predicted bands (design),
-# the physical fit and its figure; then the sweep's chain (sweep, spectra, TSA, removal); the figures and tables
-# off both fill the gaps (priority 0).
+# ended the CI run on 2 cores alone. First the chain that sets the wall time (the model and
+# the records, their harmonic removal, identification, its table and predicted bands, the
+# physical fit and its figure), then the sweep's chain (sweep, spectra, TSA, removal); the
+# figures and tables off both fill the gaps (priority 0).
 CRITICAL_PATH = 2
 SWEEP_PATH = 1
 
