@@ -90,20 +90,20 @@ def _benchmark(path: Path, s: float, rss: float) -> None:
 
 
 def test_the_report_fails_when_a_rule_exceeds_its_declaration(tmp_path, capsys):
-    sim = DECLARED.rules["removal_tests"]
+    sim = DECLARED.rules["identify"]
     bench = tmp_path / "results" / "benchmarks"
-    _benchmark(bench / "removal_tests" / "a_square.tsv", 10.0, sim["mem_mb"] - 1)
+    _benchmark(bench / "identify" / "a_square.tsv", 10.0, sim["mem_mb"] - 1)
     _benchmark(bench / "kinematics.tsv", 1.0, 100.0)
     assert resources_report.main([str(tmp_path / "results")]) == 0
-    # one more job of removal_tests, 1 MB over its declaration: that rule, and only it, fails
-    _benchmark(bench / "removal_tests" / "b_square.tsv", 10.0, sim["mem_mb"] + 1)
+    # one more job of identify, 1 MB over its declaration: that rule, and only it, fails
+    _benchmark(bench / "identify" / "b_square.tsv", 10.0, sim["mem_mb"] + 1)
     assert resources_report.main([str(tmp_path / "results")]) == 1
     out = capsys.readouterr()
-    assert "exceeded or undeclared: removal_tests" in out.err
+    assert "exceeded or undeclared: identify" in out.err
     rows = {r["rule"]: r for r in jobresources.compare(
         DECLARED, jobresources.measured_in(tmp_path / "results"))}
-    assert rows["removal_tests"]["status"] == "memory exceeded"
-    assert rows["removal_tests"]["jobs"] == 2
+    assert rows["identify"]["status"] == "memory exceeded"
+    assert rows["identify"]["jobs"] == 2
     assert rows["kinematics"]["status"] == "ok"
     # too long is flagged too, and a rule nobody declared
     _benchmark(bench / "kinematics.tsv", 60.0 * DECLARED.rules["kinematics"]["runtime"] + 1,
@@ -121,20 +121,20 @@ def test_a_job_shorter_than_the_sampling_interval_has_no_memory_measurement(tmp_
     # kinematics ended before Snakemake's first sample after its launch: the 2.7 MB are
     # the launcher's, not the script's
     _benchmark(bench / "kinematics.tsv", short, 2.7)
-    # removal_tests: one job sampled (180 MB), one too short to be (3 MB)
-    _benchmark(bench / "removal_tests" / "a_square.tsv", 2.0, 180.0)
-    _benchmark(bench / "removal_tests" / "b_square.tsv", short, 3.0)
+    # identify: one job sampled (180 MB), one too short to be (3 MB)
+    _benchmark(bench / "identify" / "a_square.tsv", 2.0, 180.0)
+    _benchmark(bench / "identify" / "b_square.tsv", short, 3.0)
     use = jobresources.measured_in(tmp_path / "results")
     assert math.isnan(use["kinematics"].max_rss_mb)
     assert (use["kinematics"].jobs, use["kinematics"].unsampled) == (1, 1)
     assert use["kinematics"].max_wall_s == short
-    assert use["removal_tests"].max_rss_mb == 180.0
-    assert (use["removal_tests"].jobs, use["removal_tests"].unsampled) == (2, 1)
+    assert use["identify"].max_rss_mb == 180.0
+    assert (use["identify"].jobs, use["identify"].unsampled) == (2, 1)
     rows = {r["rule"]: r for r in jobresources.compare(DECLARED, use)}
     assert rows["kinematics"]["measured_rss_mb"] is None
     assert rows["kinematics"]["unsampled_jobs"] == 1
     assert rows["kinematics"]["status"] == "ok"
-    assert rows["removal_tests"]["measured_rss_mb"] == 180.0
+    assert rows["identify"]["measured_rss_mb"] == 180.0
     with pytest.raises(ValueError, match="never sampled its memory"):
         jobresources.propose(use["kinematics"], DECLARED.headroom)
 
@@ -142,9 +142,9 @@ def test_a_job_shorter_than_the_sampling_interval_has_no_memory_measurement(tmp_
 def test_several_results_folders_count_together(tmp_path):
     # a study's runs (or the default and the bench-record run) in one report
     for name, rss, s in (("one", 180.0, 2.0), ("two", 250.0, 1.5)):
-        _benchmark(tmp_path / name / "benchmarks" / "removal_tests" / "a_square.tsv", s, rss)
+        _benchmark(tmp_path / name / "benchmarks" / "identify" / "a_square.tsv", s, rss)
     use = jobresources.measured_in(tmp_path / "one", tmp_path / "two")
-    assert use["removal_tests"] == jobresources.Measured("removal_tests", 2, 250.0, 2.0, 2.0, 0)
+    assert use["identify"] == jobresources.Measured("identify", 2, 250.0, 2.0, 2.0, 0)
 
 
 def test_proposal_applies_the_headroom():

@@ -4,29 +4,30 @@ SIMULATE_CFG = {k: config[k] for k in ("seed", "gearbox", "bench", "campaign", "
                                        "excitation", "tachometer")}
 
 
-def _twin_tests():
+def _identified_tests():
     # every identified test and its validation record (rules.identify reads both after
     # TSA and after each removal version)
     tests = list(config["identify"]["tests"])
     return sorted({*tests, *(_partner(t) for t in tests)})
 
 
+# the records of rule removal_tests (TSA and every removal version): every identified test
+# and its validation record, on every identified profile
+REMOVAL_RECORDS = [(t, p) for t in _identified_tests()
+                   for p in config["identify"]["profiles"]]
+
+
 def _campaign_records():
     # every record a stage reads or a target names, as (test, profile): the campaign, the
     # ramp tests of figures 7-10, and the identified tests with their validation records
-    camp, idc = config["campaign"], config["identify"]
+    camp = config["campaign"]
     records = {(t, p) for t in camp["tests"] for p in camp["profiles"]}
     records |= {(t, config["figures"]["test_profile"])
                 for t in ("speed_up", "speed_down", "torque_up", "torque_down")}
-    records |= {(t, p) for t in idc["tests"] + [_partner(t) for t in idc["tests"]]
-                for p in idc["profiles"]}
-    return sorted(records)
+    return sorted(records | set(REMOVAL_RECORDS))
 
 
 CAMPAIGN_RECORDS = _campaign_records()
-# the records of rule removal_tests (TSA and every removal version): every identified test
-# and its validation record, on every identified profile
-REMOVAL_RECORDS = [(t, p) for t in _twin_tests() for p in config["identify"]["profiles"]]
 # the records with a random-only twin: those a removal version is scored on
 CAMPAIGN_TWINS = REMOVAL_RECORDS if REMOVAL_VERSIONS else []
 

@@ -18,10 +18,11 @@ p, i, out = snakemake.params, snakemake.input, snakemake.output
 families = test_families(p.families_cfg) if p.method_cfg else None
 bench = io.read(i.bench) if p.method_cfg else None
 # the random-only twins exist exactly when there are removal versions (rule campaign)
-twins = iter(i.random)
+twins = list(i.random) or [None] * len(p.records)
 # every record and version before any file: a failure leaves no output
-done = []  # per record: (test, profile, record file, tsa dataset, {method: dataset})
-for n, ((test, profile), path) in enumerate(zip(p.records, i.record, strict=True), 1):
+done = []  # per record: (test, profile, record file, twin file, tsa, {method: dataset})
+for n, ((test, profile), path, twin) in enumerate(
+        zip(p.records, i.record, twins, strict=True), 1):
     record = io.read(path)
     what = f"Measured-like {test} ({profile})"
     tsa = record_residuals(record, p.signals, p.tsa_cfg["stages"], p.tsa_cfg["tsa"],
@@ -30,7 +31,7 @@ for n, ((test, profile), path) in enumerate(zip(p.records, i.record, strict=True
              tsa.attrs["removed_cycles"], len(p.signals))
     versions = {}
     if p.method_cfg:
-        random = io.read(next(twins))
+        random = io.read(twin)
         # the known harmonic part alone: each method's leftover on it is free of the random
         # part's own content at the orders
         harmonic = harmonic_record(record, random, p.signals)
@@ -45,14 +46,13 @@ for n, ((test, profile), path) in enumerate(zip(p.records, i.record, strict=True
                      "worst mode-band level change %.2f dB", n, len(p.records), what,
                      list(families), method, len(p.signals), float(ds.leftover_db.min()),
                      float(abs(ds.change_db.sel(band=ds.band != "elsewhere")).max()))
-    done.append((test, profile, path, tsa, versions))
+    done.append((test, profile, path, twin, tsa, versions))
 
 # each removal version's file: the config slice it depends on (not TSA's)
 slice_keys = ("method_cfg", "families_cfg", "signals", "keep_below", "spectra")
 config = {k: getattr(p, k) for k in slice_keys}
 nc = iter(out.nc)
-for (test, profile, path, tsa, versions), tsa_path, twin in zip(
-        done, out.tsa, i.random or [None] * len(done), strict=True):
+for (test, profile, path, twin, tsa, versions), tsa_path in zip(done, out.tsa, strict=True):
     wildcards = {"test": test, "profile": profile}
     what = f"Measured-like {test} ({profile})"
     io.write(tsa, tsa_path, sources=[path, *i.code], stage="removal_tests",

@@ -199,14 +199,10 @@ def residual_vkf(x: np.ndarray, fs: float, pulse_times: np.ndarray, families: Fa
             if k == 0:
                 new[:] = filt.solve(target[:, None])[:, 0]
             else:
-                if k in phasors:
-                    cos, sin = phasors[k]
-                else:
+                cos, sin = phasors.get(k, (cos_work, sin_work))
+                if k not in phasors:  # first pass, or beyond the kept orders
                     if k <= kept:
-                        cos, sin = np.empty(n), np.empty(n)
-                        phasors[k] = cos, sin
-                    else:  # recomputed in the shared work arrays
-                        cos, sin = cos_work, sin_work
+                        cos, sin = phasors[k] = np.empty(n), np.empty(n)
                     np.multiply(o, rec.theta, out=buf)
                     np.cos(buf, out=cos)
                     np.sin(buf, out=sin)
