@@ -118,6 +118,10 @@ CASES: list[tuple[str, str, dict, str]] = [
     ("negative_seed", "range", {"seed": -1}, "seed"),
     ("figure_profile_unknown", "type", {"figures": {"test_profile": "smooth"}},
      "figures.test_profile"),
+    ("figure_format_unknown", "type", {"figures": {"formats": ["png", "jpeg"]}},
+     "figures.formats[1]"),
+    ("figure_formats_without_png", "type", {"figures": {"formats": ["pdf"]}},
+     "figures.formats"),
     ("versions_empty", "type", {"identify": {"versions": []}}, "identify.versions"),
     # missing keys
     ("stage_missing_pinion", "missing", _stage(2, pinion=None), "gearbox.stages[2].pinion"),

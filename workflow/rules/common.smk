@@ -35,21 +35,40 @@ def code(script):
     return codedeps.closure(f"{workflow.basedir}/workflow/scripts/{script}", SRC)
 
 
+#: File formats of every figure (figures.formats), PNG first: the report embeds it. A
+#: figure rule passes them to its script (params.formats, gbpipe.figures.style.formats).
+FIGURE_FORMATS = ["png", *(f for f in config["figures"]["formats"] if f != "png")]
+
+
+def figure_files(stem):
+    """The image files of a figure stem: `<stem>.<format>`, one per FIGURE_FORMATS."""
+    return [f"{stem}.{ext}" for ext in FIGURE_FORMATS]
+
+
 def figure(n):
-    """Final files of figure n: PNG, PDF and its report caption (with key numbers)."""
+    """Final files of figure n: one image per format and its report caption (with key
+    numbers)."""
     name = f"fig{n:02d}" if isinstance(n, int) else f"fig_{n}"
-    stem = f"{RESULTS}/figures/{name}"
-    return [f"{stem}.png", f"{stem}.pdf", f"{RESULTS}/report/{name}.rst"]
+    return figure_files(f"{RESULTS}/figures/{name}") + [f"{RESULTS}/report/{name}.rst"]
+
+
+def image_outputs(name, stem, caption, category):
+    """Named rule outputs of one figure: `<name>_png` (into `snakemake --report`, captioned
+    by `caption`, a path relative to this rules folder), `<name>_<format>` for every other
+    format of FIGURE_FORMATS."""
+    png, *others = figure_files(stem)
+    return {f"{name}_png": report(png, caption=caption, category=category),
+            **{f"{name}_{ext}": path
+               for ext, path in zip(FIGURE_FORMATS[1:], others, strict=True)}}
 
 
 def figure_outputs(n, category, name=None):
-    """Named rule outputs of figure n: `<name>_png` (into `snakemake --report`, captioned by
-    the RST file the same rule writes; the caption path is relative to this rules folder),
-    `<name>_pdf` and `<name>_caption`. `name` defaults to `fig<n>`."""
-    png, pdf, rst = figure(n)
+    """Named rule outputs of figure n: its images (`image_outputs`, captioned by the RST file
+    the same rule writes) and `<name>_caption`. `name` defaults to `fig<n>`."""
+    *images, rst = figure(n)
     name = name or f"fig{n}"
-    return {f"{name}_png": report(png, caption=f"../../{rst}", category=category),
-            f"{name}_pdf": pdf, f"{name}_caption": rst}
+    stem = images[0].removesuffix(".png")
+    return {**image_outputs(name, stem, f"../../{rst}", category), f"{name}_caption": rst}
 
 
 def all_targets():

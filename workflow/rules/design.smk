@@ -16,8 +16,7 @@ def _design_files():
 
 def design_targets():
     """Every design file and the design figure (for `all_targets`)."""
-    stem = f"{RESULTS}/figures/fig_design"
-    return _design_files() + [f"{stem}.png", f"{stem}.pdf", f"{RESULTS}/report/fig_design.rst"]
+    return _design_files() + figure("design")
 
 
 rule design:
@@ -62,6 +61,7 @@ rule figures_design:
         code=code("figures_design.py"),
     params:
         versions=config["identify"]["versions"],
+        formats=FIGURE_FORMATS,
     output:
         **figure_outputs("design", "Identification", name="fig_design"),
     log:

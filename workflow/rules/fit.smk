@@ -72,12 +72,13 @@ rule figures_fit:
     input:
         nc=rules.fit.output.nc,
         code=code("figures_fit.py"),
+    params:
+        formats=FIGURE_FORMATS,
     output:
         # the report's caption is a template (Snakemake does not expand wildcards in a
         # caption path); the run's numbers are in the caption file the rule writes
-        fig_fit_png=report(f"{RESULTS}/figures/fig_fit_{{record}}.png",
-                           caption="../report/fig_fit.rst", category="Physical fit"),
-        fig_fit_pdf=f"{RESULTS}/figures/fig_fit_{{record}}.pdf",
+        **image_outputs("fig_fit", f"{RESULTS}/figures/fig_fit_{{record}}",
+                        "../report/fig_fit.rst", "Physical fit"),
         fig_fit_caption=f"{RESULTS}/report/fig_fit_{{record}}.rst",
     log:
         f"{RESULTS}/logs/figures_fit/{{record}}.log",

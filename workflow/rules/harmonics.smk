@@ -69,6 +69,7 @@ rule figures_harmonics:
         variants=list(TSA_VARIANTS),
         n_cycles=config["tsa"]["n_cycles"],
         stages=config["gearbox"]["stages"],
+        formats=FIGURE_FORMATS,
     output:
         **{k: v for n in range(11, 18) for k, v in figure_outputs(n, "Harmonic removal").items()},
         **figure_outputs("mode_band", "Harmonic removal", name="mode_band"),

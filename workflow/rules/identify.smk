@@ -17,15 +17,14 @@ def _id_jobs():
                   test=idc["tests"], profile=idc["profiles"], method=idc["methods"])
 
 
-def _bandwidth_figure():
-    stem = f"{RESULTS}/figures/identification_bandwidth"
-    return [f"{stem}.png", f"{stem}.pdf", f"{RESULTS}/report/identification_bandwidth.rst"]
+_BANDWIDTH_STEM = f"{RESULTS}/figures/identification_bandwidth"
+_BANDWIDTH_CAPTION = f"{RESULTS}/report/identification_bandwidth.rst"
 
 
 def identify_targets():
     """Final targets of the identification stage (for `all_targets`)."""
     return (_id_jobs() + [f"{RESULTS}/tables/identification.csv"] + figure(6)
-            + _bandwidth_figure())
+            + figure_files(_BANDWIDTH_STEM) + [_BANDWIDTH_CAPTION])
 
 
 rule identify:
@@ -98,12 +97,12 @@ rule figures_identify:
         code=code("figures_identify.py"),
     params:
         best=lambda w: config["identify"]["best"],
+        formats=FIGURE_FORMATS,
     output:
         **figure_outputs(6, "Identification"),
-        bandwidth_png=report(_bandwidth_figure()[0], caption=f"../../{_bandwidth_figure()[2]}",
-                             category="Identification"),
-        bandwidth_pdf=_bandwidth_figure()[1],
-        bandwidth_caption=_bandwidth_figure()[2],
+        **image_outputs("bandwidth", _BANDWIDTH_STEM, f"../../{_BANDWIDTH_CAPTION}",
+                        "Identification"),
+        bandwidth_caption=_BANDWIDTH_CAPTION,
     log:
         f"{RESULTS}/logs/figures_identify.log",
     benchmark:

@@ -164,12 +164,11 @@ rule figures_measured:
         code=code("figures_measured.py"),
     params:
         coherence_min=config["identify"]["nonparametric"]["coherence_min"],
+        formats=FIGURE_FORMATS,
     output:
-        png=report(f"{RESULTS}/figures/fig_measured_{{record}}.png",
-                   # a template: Snakemake does not expand wildcards in a caption path
-                   caption="../report/fig_measured.rst",
-                   category="Bench records"),
-        pdf=f"{RESULTS}/figures/fig_measured_{{record}}.pdf",
+        # the caption is a template: Snakemake does not expand wildcards in a caption path
+        **image_outputs("fig", f"{RESULTS}/figures/fig_measured_{{record}}",
+                        "../report/fig_measured.rst", "Bench records"),
         caption=f"{RESULTS}/report/fig_measured_{{record}}.rst",
     log:
         f"{RESULTS}/logs/figures_measured/{{record}}.log",

@@ -33,6 +33,7 @@ rule figures_model:
         code=code("figures_model.py"),
     params:
         model={k: config[k] for k in ("gearbox", "bench")},
+        formats=FIGURE_FORMATS,
     output:
         **figure_outputs(3, "Model"),
         **figure_outputs(4, "Model"),

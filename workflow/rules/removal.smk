@@ -84,6 +84,7 @@ rule figures_removal:
         code=code("figures_removal.py"),
     params:
         methods=REMOVAL_METHODS,
+        formats=FIGURE_FORMATS,
     output:
         **figure_outputs("removal_tradeoff", "Harmonic removal", name="removal_tradeoff"),
     log:

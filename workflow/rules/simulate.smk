@@ -104,6 +104,8 @@ rule figures_tests:
         torque=expand(f"{RESULTS}/simulate/torque_{{d}}_{{p}}.nc", d=["up", "down"],
                       p=config["figures"]["test_profile"]),
         code=code("figures_tests.py"),
+    params:
+        formats=FIGURE_FORMATS,
     output:
         **figure_outputs(7, "Test campaigns"),
         **figure_outputs(8, "Test campaigns"),

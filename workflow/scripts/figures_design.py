@@ -3,6 +3,7 @@ bandwidth, and the predicted error against frequency (docs/design.md)."""
 
 from gbpipe import io
 from gbpipe.figures.design_plots import fig_design
+from gbpipe.figures.style import formats
 
 snakemake = globals()["snakemake"]
 log = io.setup_log(snakemake.log[0])
@@ -25,6 +26,7 @@ for path in snakemake.input.models:
             key = (label, str(p))
             achieved[key] = max(achieved.get(key, 0.0), float(bw))
 out = snakemake.output
-numbers = fig_design(designs, out.fig_design_png, out.fig_design_caption, achieved,
-                     version=version)
+with formats(snakemake.params.formats):  # config figures.formats
+    numbers = fig_design(designs, out.fig_design_png, out.fig_design_caption, achieved,
+                         version=version)
 log.info("design figure (achieved: %s): %s", version, numbers)

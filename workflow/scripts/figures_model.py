@@ -2,9 +2,11 @@
 
 from gbpipe import io
 from gbpipe.figures.model_plots import model_figures
+from gbpipe.figures.style import formats
 
 snakemake = globals()["snakemake"]
 log = io.setup_log(snakemake.log[0])
-model_figures(io.read(snakemake.input.gearbox), io.read(snakemake.input.bench),
-              snakemake.params.model, dict(snakemake.output.items()))
+with formats(snakemake.params.formats):  # config figures.formats
+    model_figures(io.read(snakemake.input.gearbox), io.read(snakemake.input.bench),
+                  snakemake.params.model, dict(snakemake.output.items()))
 log.info("wrote figures 3-5")

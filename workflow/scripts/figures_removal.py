@@ -2,6 +2,7 @@
 
 from gbpipe import io
 from gbpipe.figures.removal_plots import removal_tradeoff_figure
+from gbpipe.figures.style import formats
 
 snakemake = globals()["snakemake"]
 log = io.setup_log(snakemake.log[0])
@@ -9,5 +10,6 @@ datasets = {m: io.read(p) for m, p in zip(snakemake.params.methods, snakemake.in
                                           strict=True)}
 out = {"png": snakemake.output.removal_tradeoff_png,
        "caption": snakemake.output.removal_tradeoff_caption}
-numbers = removal_tradeoff_figure(datasets, out)
+with formats(snakemake.params.formats):  # config figures.formats
+    numbers = removal_tradeoff_figure(datasets, out)
 log.info("removal trade-off: %s", numbers)

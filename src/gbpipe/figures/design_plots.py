@@ -99,7 +99,8 @@ def fig_design(designs: Mapping[str, xr.Dataset], stem: str | os.PathLike,
     designs : mapping
         Test label (e.g. ``"ms_torque tapered"``) -> design dataset.
     stem : path-like
-        Figure path without extension (PNG and PDF).
+        Figure path without extension (every format of
+        :func:`~gbpipe.figures.style.save`).
     caption : path-like
         Caption ``.rst`` file.
     achieved : mapping, optional

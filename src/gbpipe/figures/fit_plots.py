@@ -45,7 +45,7 @@ def fig_fit(ds: xr.Dataset, stem: str | os.PathLike, caption: str | os.PathLike,
     ds : xarray.Dataset
         A ``fit`` stage output.
     stem : path-like
-        Target ``<stem>.png`` / ``.pdf`` (a suffix is dropped).
+        Target ``<stem>.png``, and the other formats beside it (a suffix is dropped).
     caption : path-like
         The ``.rst`` caption.
     record : str

@@ -83,7 +83,7 @@ def fig_bode_identified(datasets: Sequence[xr.Dataset], cases: Sequence[Mapping[
         first input); e.g. the paper's case (``identify.best``) and the best pairing on
         measured-like data (:func:`gbpipe.identify.best_pairings`).
     stem : path-like
-        Output stem (``.png`` and ``.pdf``).
+        Output stem (``.png``, and the other formats of :func:`~gbpipe.figures.style.save`).
 
     Returns
     -------
@@ -165,7 +165,7 @@ def identification_figures(datasets: Sequence[xr.Dataset], best: Mapping[str, An
         ``identifiable``, ``pairing``, ``version``, ``test``, ``profile``, ``method``).
     out : mapping
         Output paths by name: ``fig6_png``, ``fig6_caption``, ``bandwidth_png`` and
-        ``bandwidth_caption`` (the PDF goes beside each PNG).
+        ``bandwidth_caption`` (the other formats go beside each PNG).
 
     Returns
     -------

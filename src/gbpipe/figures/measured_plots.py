@@ -41,7 +41,7 @@ def measured_identification_figure(datasets: Sequence[xr.Dataset], record: str,
     coherence_min : float
         ``identify.nonparametric.coherence_min`` (drawn on the coherence panel).
     out : mapping
-        ``png`` and ``caption`` paths (the PDF goes beside the PNG).
+        ``png`` and ``caption`` paths (the other formats go beside the PNG).
 
     Returns
     -------

@@ -92,7 +92,7 @@ def model_figures(gearbox: xr.Dataset, bench: xr.Dataset, model_cfg: Mapping[str
         gearbox name in the Fig. 5 caption).
     out : mapping
         Output paths by name: ``fig<n>_png`` and ``fig<n>_caption`` for n = 3, 4, 5 (the
-        PDF goes beside each PNG).
+        other formats go beside each PNG).
     """
     fig3_gearbox_bode(gearbox, out["fig3_png"])
     fig4_bench_bode(bench, out["fig4_png"])

@@ -75,7 +75,7 @@ def removal_tradeoff_figure(datasets: Mapping[str, xr.Dataset],
         (with ``leftover_db``), carrying the attributes ``runtime_s`` (wall time of the
         method on the record [s]) and ``peak_memory_mb`` (its peak memory [MB]).
     out : mapping
-        ``png`` and ``caption`` paths (the PDF goes beside the PNG).
+        ``png`` and ``caption`` paths (the other formats go beside the PNG).
     tolerance_db : float
         Largest allowed level change in a mode band [dB] (the issue's "within 1 dB of the
         random-only signal").

@@ -1,8 +1,11 @@
-"""Shared figure style and the one save function (PNG + PDF, atomic)."""
+"""Shared figure style and the one save function (every configured format, atomic)."""
 
 from __future__ import annotations
 
 import os
+from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
+from contextvars import ContextVar
 from pathlib import Path
 
 import matplotlib
@@ -13,7 +16,16 @@ import matplotlib.pyplot as plt  # noqa: E402
 
 from gbpipe.io import atomic_path  # noqa: E402
 
-__all__ = ["plt", "save", "new"]
+__all__ = ["plt", "save", "new", "FORMATS", "DEFAULT_FORMATS", "formats"]
+
+#: File formats a figure may be saved in (config ``figures.formats``). PNG is always one:
+#: the report embeds it and every caption refers to it.
+FORMATS = ("png", "pdf", "svg")
+#: Formats of :func:`save` outside a :func:`formats` block: PNG for the report, PDF (text
+#: as TrueType, editable) for papers
+DEFAULT_FORMATS = ("png", "pdf")
+_formats: ContextVar[tuple[str, ...]] = ContextVar("gbpipe_figure_formats",
+                                                   default=DEFAULT_FORMATS)
 
 plt.rcParams.update({
     "figure.dpi": 110, "savefig.dpi": 150, "font.size": 9, "axes.grid": True,
@@ -28,19 +40,47 @@ def new(nrows: int = 1, ncols: int = 1, **kw):
     return plt.subplots(nrows, ncols, layout="constrained", **kw)
 
 
+@contextmanager
+def formats(names: Sequence[str]) -> Iterator[tuple[str, ...]]:
+    """Save every figure of the block in ``names`` (config ``figures.formats``).
+
+    Parameters
+    ----------
+    names : sequence of str
+        Formats of :data:`FORMATS`, ``png`` among them; saved in the order given, PNG
+        first.
+
+    Raises
+    ------
+    ValueError
+        An unknown or repeated format, or no PNG.
+    """
+    names = tuple(names)
+    bad = [n for n in names if n not in FORMATS]
+    if bad or "png" not in names or len(set(names)) != len(names):
+        raise ValueError(f"figure formats must be distinct names of {list(FORMATS)} with "
+                         f"'png' among them (the report embeds it); got {list(names)}")
+    token = _formats.set(("png", *(n for n in names if n != "png")))
+    try:
+        yield _formats.get()
+    finally:
+        _formats.reset(token)
+
+
 def save(fig, stem: str | os.PathLike) -> list[Path]:
-    """Save ``fig`` as ``<stem>.png`` and ``<stem>.pdf`` (temp file, then rename)."""
+    """Save ``fig`` as ``<stem>.<format>`` for each format of the enclosing
+    :func:`formats` block (default :data:`DEFAULT_FORMATS`): temp file, then rename."""
     stem = Path(stem)
-    if stem.suffix in (".png", ".pdf"):
+    if stem.suffix.lstrip(".") in FORMATS:
         stem = stem.with_suffix("")
     out = []
-    for ext in ("png", "pdf"):
+    for ext in _formats.get():
         path = stem.with_suffix(f".{ext}")
         with atomic_path(path) as tmp:
             fig.savefig(tmp, format=ext)
         out.append(path)
-        # the PDF keeps the layout the PNG's draw computed: the constrained layout is
-        # solved once per figure, not once per file (about a fifth of a figure's time)
+        # the other formats keep the layout the PNG's draw computed: the constrained layout
+        # is solved once per figure, not once per file (about a fifth of a figure's time)
         fig.set_layout_engine("none")
     plt.close(fig)
     return out

@@ -107,8 +107,8 @@ def ramp_test_figures(speed: Sequence[xr.Dataset], torque: Sequence[xr.Dataset],
         ``simulate`` outputs of the speed-ramp and of the torque-ramp tests (speeds
         [rad/s], torques [N·m], attribute ``sample_rate`` [Hz]); one panel each.
     out : mapping
-        Output paths by name: ``fig<n>_png`` and ``fig<n>_caption`` for n = 7..10 (the PDF
-        goes beside each PNG). Captions give the final GB1 HSS speed [rpm], the final
+        Output paths by name: ``fig<n>_png`` and ``fig<n>_caption`` for n = 7..10 (the
+        other formats go beside each PNG). Captions give the final GB1 HSS speed [rpm], the final
         driven torque-meter torque [kN·m] (means over the last second) and the rms of
         harmonics plus noise on the driven torque meter [N·m].
     """

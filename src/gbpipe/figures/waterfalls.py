@@ -133,7 +133,7 @@ def harmonics_figures(raw: xr.Dataset, variants: Mapping[str, xr.Dataset],
         first three (the paper's: hss, carrier2, mesh2).
     out : mapping
         Output paths by name: ``fig<n>_png`` and ``fig<n>_caption`` for n = 11..17,
-        ``mode_band_png`` and ``mode_band_caption`` (the PDF goes beside each PNG).
+        ``mode_band_png`` and ``mode_band_caption`` (the other formats go beside each PNG).
     n_cycles : int
         Cycles per average (``tsa.n_cycles``), for the captions.
     stages : sequence of mapping
