@@ -45,11 +45,17 @@ def figure_files(stem):
     return [f"{stem}.{ext}" for ext in FIGURE_FORMATS]
 
 
+def _figure_paths(n):
+    """Stem and report caption of figure n (`figNN` for a number, `fig_<n>` for a name)."""
+    name = f"fig{n:02d}" if isinstance(n, int) else f"fig_{n}"
+    return f"{RESULTS}/figures/{name}", f"{RESULTS}/report/{name}.rst"
+
+
 def figure(n):
     """Final files of figure n: one image per format and its report caption (with key
     numbers)."""
-    name = f"fig{n:02d}" if isinstance(n, int) else f"fig_{n}"
-    return figure_files(f"{RESULTS}/figures/{name}") + [f"{RESULTS}/report/{name}.rst"]
+    stem, rst = _figure_paths(n)
+    return figure_files(stem) + [rst]
 
 
 def image_outputs(name, stem, caption, category):
@@ -65,9 +71,8 @@ def image_outputs(name, stem, caption, category):
 def figure_outputs(n, category, name=None):
     """Named rule outputs of figure n: its images (`image_outputs`, captioned by the RST file
     the same rule writes) and `<name>_caption`. `name` defaults to `fig<n>`."""
-    *images, rst = figure(n)
+    stem, rst = _figure_paths(n)
     name = name or f"fig{n}"
-    stem = images[0].removesuffix(".png")
     return {**image_outputs(name, stem, f"../../{rst}", category), f"{name}_caption": rst}
 
 
