@@ -35,9 +35,10 @@ def code(script):
     return codedeps.closure(f"{workflow.basedir}/workflow/scripts/{script}", SRC)
 
 
-#: File formats of every figure (figures.formats), PNG first: the report embeds it. A
-#: figure rule passes them to its script (params.formats, gbpipe.figures.style.formats).
-FIGURE_FORMATS = ["png", *(f for f in config["figures"]["formats"] if f != "png")]
+#: File formats of every figure (figures.formats; the schema requires png, which the
+#: report embeds). A figure rule passes them to its script (params.formats), whose
+#: gbpipe.figures.style.formats block saves them, PNG first.
+FIGURE_FORMATS = config["figures"]["formats"]
 
 
 def figure_files(stem):
@@ -59,13 +60,12 @@ def figure(n):
 
 
 def image_outputs(name, stem, caption, category):
-    """Named rule outputs of one figure: `<name>_png` (into `snakemake --report`, captioned
-    by `caption`, a path relative to this rules folder), `<name>_<format>` for every other
-    format of FIGURE_FORMATS."""
-    png, *others = figure_files(stem)
-    return {f"{name}_png": report(png, caption=caption, category=category),
-            **{f"{name}_{ext}": path
-               for ext, path in zip(FIGURE_FORMATS[1:], others, strict=True)}}
+    """Named rule outputs of one figure: `<name>_<format>` for every format of
+    FIGURE_FORMATS, the PNG into `snakemake --report` (captioned by `caption`, a path
+    relative to this rules folder)."""
+    return {f"{name}_{ext}": (report(path, caption=caption, category=category)
+                              if ext == "png" else path)
+            for ext, path in zip(FIGURE_FORMATS, figure_files(stem), strict=True)}
 
 
 def figure_outputs(n, category, name=None):
