@@ -87,14 +87,21 @@ def nan_in_time(tmp):
 
 
 def clipping_flat_top(tmp):
+    """A flat top is an error only when the signal's checks say so."""
     x = np.minimum(B.torque, 1040.0)
-    return (_spec(_csv(tmp, time=B.t, torque=x)), DataError,
-            ["s.csv", "channel 'torque'", "clipped", "flat top", "at sample"])
+    first = int(np.flatnonzero(x == 1040.0)[0])
+    spec = _spec(_csv(tmp, time=B.t, torque=x),
+                 {"torque": {**TORQUE, "checks": {"flat_top": "error"}}})
+    return (spec, DataError, ["s.csv", "channel 'torque'", "clipped", "flat top",
+                              f"at sample {first}", f"t = {B.t[first]:.9g} s",
+                              "quantity: setpoint"])
 
 
 def clipping_converter_range(tmp):
+    first = int(np.flatnonzero(B.torque >= 1050)[0])
     return (_spec(_csv(tmp), {"torque": {**TORQUE, "range": [0, 1050]}}), DataError,
-            ["s.csv", "channel 'torque'", "field 'range'", "at sample"])
+            ["s.csv", "channel 'torque'", "field 'range'", f"at sample {first}",
+             "lower the gain or widen its range"])
 
 
 def unknown_unit(tmp):

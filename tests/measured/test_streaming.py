@@ -219,7 +219,14 @@ def test_runs_across_block_edges(tmp_path):
     _same(read(spec, tmp_path), read(spec, tmp_path, out=tmp_path / "bridged.nc"))
     x = X.copy()
     x[1997:2004] = X.max() + 1.0
-    streamed, memory = _refusal(_csv_spec(tmp_path, T, x), tmp_path)
+    spec = _csv_spec(tmp_path, T, x)
+    # by default a warning, with the same position in the streamed and in-memory records
+    warned = [read(spec, tmp_path).torque.attrs["check_warnings"],
+              read(spec, tmp_path, out=tmp_path / "warned.nc").torque.attrs["check_warnings"]]
+    assert warned[0] == warned[1]
+    assert "flat top of 7 samples" in warned[0] and "from sample 1997 (t = 1.997 s" in warned[0]
+    spec["signals"]["torque"]["checks"] = {"flat_top": "error"}
+    streamed, memory = _refusal(spec, tmp_path)
     assert streamed.sample == memory.sample == 1997
     assert "flat top of 7 samples" in str(streamed) == str(memory)
 

@@ -15,7 +15,8 @@ the configuration is read without fallbacks (defaults are applied when it is loa
 from __future__ import annotations
 
 import logging
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
+from contextlib import contextmanager
 from fractions import Fraction
 from typing import Any
 
@@ -23,6 +24,7 @@ import numpy as np
 import xarray as xr
 from scipy import signal
 
+from gbpipe.errors import DataError
 from gbpipe.harmonics.families import (
     cycle_orders,
     excitation_families,
@@ -139,10 +141,41 @@ def variant_metrics(before: np.ndarray, after: np.ndarray, fs: float,
     return ds.rename(ren)
 
 
+@contextmanager
+def _on_record(record: xr.Dataset, signals: str, step: str) -> Iterator[None]:
+    """Re-raise a ``ValueError`` of ``step`` on a measured record as a
+    :class:`gbpipe.errors.DataError` naming the record, the ``signals`` and the fix.
+
+    On a bench record these fail from the data (a tacho mapped wrong gives too few pulses
+    or a wrong speed), so the message gives what the pulses say of the shaft.
+    """
+    try:
+        yield
+    except ValueError as exc:
+        if record.attrs.get("record_kind") != "measured":
+            raise
+        pulses = record["pulse_time"].values if "pulse_time" in record else np.empty(0)
+        ppr = int(record.attrs.get("pulses_per_rev", 1))
+        span = float(pulses[-1] - pulses[0]) if pulses.size > 1 else 0.0
+        said = (f"{pulses.size} pulses over {span:.6g} s at {ppr} per rev: "
+                f"{(pulses.size - 1) / ppr / span * 60.0:.6g} rpm mean" if span > 0
+                else f"{pulses.size} pulse(s)")
+        raise DataError(f"record '{record.attrs.get('record', '?')}': signal(s) {signals}",
+                        f"{step} failed: {exc}. The tacho gives {said}; fix: check the "
+                        f"record's tacho mapping (quantity: tacho with pulses_per_rev, "
+                        f"tacho: analog/count/angle, scale:, threshold:) against the "
+                        f"shaft speed, and that the record spans the revolutions "
+                        f"{step} needs") from exc
+
+
 def sweep_waterfalls(sweep: xr.Dataset, spec: Mapping[str, Any]) -> xr.Dataset:
     """Waterfalls of the sweep signal ``spec["signal"]`` (the ``spectra`` stage), or of a
     bench record's (its longest gap-free piece: :func:`gbpipe.io.longest_segment`)."""
-    sweep = longest_segment(sweep)
+    with _on_record(sweep, spec["signal"], "spectra"):
+        return _sweep_waterfalls(longest_segment(sweep), spec)
+
+
+def _sweep_waterfalls(sweep: xr.Dataset, spec: Mapping[str, Any]) -> xr.Dataset:
     x = sweep[spec["signal"]]
     return waterfalls(x.values.astype(float), float(sweep.attrs["sample_rate"]),
                       sweep.pulse_time.values, spec,
@@ -312,7 +345,8 @@ def record_residuals(record: xr.Dataset, names: Sequence[str],
                                 for j in range(x.shape[1])])
 
     lowest = min(float(c) for c in cycles) if cycles else None
-    ds = split_residuals(record, names, tsa, lowest, keep_below,
-                         f"TSA removal of {', '.join(tsa_cfg['tests'])}")
+    with _on_record(record, ", ".join(names), "TSA"):
+        ds = split_residuals(record, names, tsa, lowest, keep_below,
+                             f"TSA removal of {', '.join(tsa_cfg['tests'])}")
     ds.attrs.update(removed_cycles=",".join(tsa_cfg["tests"]), n_cycles=n_cycles)
     return ds

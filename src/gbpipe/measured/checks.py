@@ -1,6 +1,10 @@
 """Checks of channel values: NaN or inf, clipping, length. Each error names the file,
 the channel, and the sample index.
 
+NaN is refused (or bridged under ``gaps: {interpolate_upto: N}``); clipping signs are
+:class:`Finding` objects that :func:`enforce` turns into an error, a warning or nothing,
+at the level the signal's ``checks:`` gives each check.
+
 :func:`finite` and :func:`clipping` check an array in memory; :func:`scan` makes the same
 checks on a :class:`gbpipe.measured.columns.Column` read block by block (long records),
 with runs that span blocks followed by :class:`RunTracker`.
@@ -8,13 +12,19 @@ with runs that span blocks followed by :class:`RunTracker`.
 
 from __future__ import annotations
 
+import logging
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
+
 import numpy as np
 
 from gbpipe.errors import DataError
 from gbpipe.measured.columns import Column, blocks
 
-__all__ = ["finite", "clipping", "length", "scan", "Bridged", "RunTracker", "CLIP_RUN",
-           "BLOCK"]
+__all__ = ["finite", "clipping", "enforce", "Finding", "length", "scan", "Bridged",
+           "RunTracker", "CLIP_RUN", "BLOCK"]
+
+log = logging.getLogger(__name__)
 
 #: this many equal consecutive samples at the channel's extreme count as a flat top
 CLIP_RUN = 5
@@ -52,32 +62,95 @@ def finite(values: np.ndarray, source: str, bridge_upto: int = 0) -> np.ndarray:
     return out
 
 
-def clipping(values: np.ndarray, source: str,
-             converter_range: tuple[float, float] | None = None, *,
-             flat_top: bool = True) -> None:
-    """Refuse a clipped channel.
+@dataclass(frozen=True)
+class Finding:
+    """A clipping sign in a channel: ``check`` (``"range"`` or ``"flat_top"``), what was
+    seen, its first sample and the number of samples involved."""
 
-    Clipped means: a sample at or beyond ``converter_range`` (when the mapping gives
-    the converter's range), or a flat top — :data:`CLIP_RUN` or more consecutive samples
-    equal to the channel's maximum or minimum, which a band-limited signal sampled above
-    its Nyquist rate does not produce but a saturated converter does (``flat_top=False``
-    skips this part, for signals that may legitimately rest at their extreme).
+    check: str
+    what: str
+    sample: int
+    length: int
+
+
+def clipping(values: np.ndarray,
+             converter_range: tuple[float, float] | None = None, *,
+             flat_top: bool = True) -> list[Finding]:
+    """Signs of clipping in a channel, for :func:`enforce` to judge.
+
+    Two signs: samples at or beyond ``converter_range`` (when the mapping gives the
+    converter's range: clipping for sure), and a flat top — :data:`CLIP_RUN` or more
+    consecutive samples equal to the channel's maximum or minimum. A saturated converter
+    gives a flat top, but so does a set-point resting at 0 or a reading the drive
+    updates every few ms: a flat top alone is only a hint. ``flat_top=False`` skips it.
     """
+    found: list[Finding] = []
     if values.size == 0:
-        return
+        return found
     if converter_range is not None:
         at = np.flatnonzero(_beyond(values, converter_range))
         if at.size:
-            raise _clipped(source, converter_range, at.size, int(at[0]))
-    if not flat_top:
-        return
-    for extreme, word in ((values.max(), "maximum"), (values.min(), "minimum")):
-        starts, lengths = _runs(values == extreme)
-        long_ = np.flatnonzero(lengths >= CLIP_RUN)
-        if long_.size and values.max() > values.min():
-            i = long_[0]
-            raise _flat_top(source, int(lengths[i]), word, extreme, long_.size,
-                            int(starts[i]))
+            found.append(_range_finding(converter_range, at.size, int(at[0])))
+    if flat_top and values.max() > values.min():
+        for extreme, word in ((values.max(), "maximum"), (values.min(), "minimum")):
+            starts, lengths = _runs(values == extreme)
+            long_ = np.flatnonzero(lengths >= CLIP_RUN)
+            if long_.size:
+                i = long_[0]
+                found.append(_flat_finding(int(lengths[i]), word, extreme, long_.size,
+                                           int(starts[i])))
+    return found
+
+
+def enforce(findings: list[Finding], levels: Mapping[str, str], source: str,
+            time_of: Callable[[int], float]) -> list[str]:
+    """Judge :func:`clipping` findings at the signal's check ``levels``.
+
+    Parameters
+    ----------
+    findings : list of Finding
+        From :func:`clipping` or :func:`scan`.
+    levels : mapping
+        Check name -> ``"off"``, ``"warn"`` or ``"error"`` (the signal's ``checks``).
+    source : str
+        ``file: channel``, for the messages.
+    time_of : callable
+        Sample index -> its time [s] on the file's clock.
+
+    Returns
+    -------
+    list of str
+        The warnings (also logged), each with its sample index, time and length.
+
+    Raises
+    ------
+    gbpipe.errors.DataError
+        At the first finding whose check is at level ``"error"``.
+    """
+    warnings = []
+    for f in findings:
+        level = levels[f.check]
+        if level == "off":
+            continue
+        where = (f"from sample {f.sample} (t = {time_of(f.sample):.9g} s on the file's "
+                 f"clock), {f.length} samples")
+        if level == "error":
+            raise DataError(source, f"clipped: {f.what}, {where}; {_FIX[f.check]}",
+                            sample=f.sample)
+        text = f"possible clipping ({f.check}): {f.what}, {where}"
+        log.warning("%s: %s; %s", source, text, _WARN_HINT[f.check])
+        warnings.append(text)
+    return warnings
+
+
+_FIX = {"range": "the converter saturated: lower the gain or widen its range, or correct "
+                 "range: (checks: {range: warn} keeps the record)",
+        "flat_top": "a saturated converter gives this: lower the gain or widen its range; "
+                    "a signal that rests at its extreme (a set-point, a held reading) is "
+                    "quantity: setpoint or checks: {flat_top: warn}"}
+_WARN_HINT = {"range": "the record is kept (checks: {range: warn})",
+              "flat_top": "declare the converter's range: to check it for sure; a held "
+                          "signal is quantity: setpoint (no flat-top check)"}
 
 
 def _refuse_nan(starts: np.ndarray, lengths: np.ndarray, size: int, n_bad: int, source: str,
@@ -98,18 +171,16 @@ def _beyond(values: np.ndarray, converter_range: tuple[float, float]) -> np.ndar
     return (values <= converter_range[0]) | (values >= converter_range[1])
 
 
-def _clipped(source: str, converter_range: tuple[float, float], count: int,
-             first: int) -> DataError:
+def _range_finding(converter_range: tuple[float, float], count: int,
+                   first: int) -> Finding:
     lo, hi = converter_range
-    return DataError(source, f"clipped: {count} sample(s) at the converter range "
-                     f"[{lo:g}, {hi:g}] (field 'range')", sample=first)
+    return Finding("range", f"{count} sample(s) at or beyond the converter range "
+                   f"[{lo:g}, {hi:g}] (field 'range')", first, count)
 
 
-def _flat_top(source: str, n: int, word: str, extreme: float, runs: int,
-              first: int) -> DataError:
-    return DataError(source, f"clipped: flat top of {n} samples at the {word} {extreme:g} "
-                     f"({runs} such run(s)); the converter saturated: lower the gain or "
-                     f"widen its range", sample=first)
+def _flat_finding(n: int, word: str, extreme: float, runs: int, first: int) -> Finding:
+    return Finding("flat_top", f"flat top of {n} samples at the {word} {extreme:g} "
+                   f"({runs} such run(s))", first, n)
 
 
 def length(n: int, fs: float, source: str, min_duration: float | None) -> None:
@@ -154,16 +225,18 @@ class RunTracker:
 
 def scan(column: Column, source: str, bridge_upto: int = 0,
          converter_range: tuple[float, float] | None = None, *, flat_top: bool = True,
-         block: int | None = None) -> Bridged:
+         block: int | None = None) -> tuple[Bridged, list[Finding]]:
     """:func:`finite` and :func:`clipping` of a column read block by block.
 
-    The same checks and messages, with absolute sample indices; two passes over the
-    column (the flat-top test needs the channel's extremes first).
+    The same checks, messages and findings, with absolute sample indices; two passes
+    over the column (the flat-top test needs the channel's extremes first).
 
     Returns
     -------
     Bridged
         The column with its bridged NaN runs filled.
+    list of Finding
+        The clipping signs, for :func:`enforce`.
     """
     block = BLOCK if block is None else block
     nan, nan_runs = RunTracker(), []
@@ -185,15 +258,14 @@ def scan(column: Column, source: str, bridge_upto: int = 0,
     starts = np.concatenate([s for s, _ in nan_runs]).astype(np.int64)
     lengths = np.concatenate([n for _, n in nan_runs]).astype(np.int64)
     _refuse_nan(starts, lengths, column.size, n_bad, source, bridge_upto)
-    if n_clip:
-        raise _clipped(source, converter_range, n_clip, first_clip)
+    found = [_range_finding(converter_range, n_clip, first_clip)] if n_clip else []
     bridged = Bridged(column, starts, lengths)
     if flat_top and lo_hi[1] > lo_hi[0]:
-        _flat_tops(bridged, source, lo_hi, block)
-    return bridged
+        found += _flat_tops(bridged, lo_hi, block)
+    return bridged, found
 
 
-def _flat_tops(column: Bridged, source: str, lo_hi: list[float], block: int) -> None:
+def _flat_tops(column: Bridged, lo_hi: list[float], block: int) -> list[Finding]:
     """The flat-top part of :func:`clipping`, second pass over the column."""
     trackers = {"maximum": RunTracker(), "minimum": RunTracker()}
     extremes = {"maximum": lo_hi[1], "minimum": lo_hi[0]}
@@ -211,11 +283,13 @@ def _flat_tops(column: Bridged, source: str, lo_hi: list[float], block: int) -> 
         v = column.read(a, b)
         for word, tracker in trackers.items():
             collect(word, tracker.feed(v == extremes[word], a))
+    found = []
     for word, tracker in trackers.items():
         collect(word, tracker.finish())
         if long_runs[word]:
             start, n = long_runs[word][0]
-            raise _flat_top(source, n, word, extremes[word], count[word], start)
+            found.append(_flat_finding(n, word, extremes[word], count[word], start))
+    return found
 
 
 class Bridged:

@@ -19,8 +19,12 @@
     An analog tacho voltage becomes pulse times through
     :func:`gbpipe.harmonics.tacho.pulse_times_from_tacho` (threshold with hysteresis,
     sub-sample crossing); a pulse-count channel (``tacho: count``, a counter sampled
-    like any channel) gives one pulse per count increment, timed between the two
-    samples that bracket it (one-sample resolution is all a sampled counter knows).
+    like any channel, ``value * scale + offset`` pulses) gives one pulse per whole pulse
+    counted, timed by linear interpolation between the two samples that bracket it, with
+    the count taken half a count above its floor (one-sample resolution is all a sampled
+    counter knows); a cumulative encoder angle (``tacho: angle``) gives a pulse every
+    ``2π / pulses_per_rev``, timed by linear interpolation (exact at constant speed within
+    a sample; otherwise off by about α·dt²/(8ω) [s] at angular acceleration α).
 """
 
 from __future__ import annotations
@@ -34,8 +38,8 @@ from gbpipe.errors import DataError
 from gbpipe.harmonics.tacho import pulse_times_from_tacho
 from gbpipe.measured.spec import SignalSpec
 
-__all__ = ["speed_from_angle", "savgol_window", "pulse_times", "POLYORDER", "GAIN_TOL",
-           "BAND"]
+__all__ = ["speed_from_angle", "savgol_window", "pulse_times", "crossings", "POLYORDER",
+           "GAIN_TOL", "BAND"]
 
 log = logging.getLogger(__name__)
 
@@ -77,20 +81,58 @@ def speed_from_angle(angle: np.ndarray, dt: float, record_fs: float) -> np.ndarr
 
 def pulse_times(values: np.ndarray, t0: float, dt: float, sig: SignalSpec,
                 source: str) -> np.ndarray:
-    """Pulse times [s] (on the clock of ``t0``) from a tacho channel, as ``sig`` says."""
+    """Pulse times [s] (on the clock of ``t0``) from a tacho channel, as ``sig`` says.
+
+    ``tacho: analog``: a voltage (Schmitt trigger). ``tacho: count``: a cumulative counter
+    in whole counts; ``value * scale + offset`` is the number of pulses. ``tacho: angle``:
+    a cumulative angle [rad] (already converted), a pulse every ``2π / pulses_per_rev``.
+
+    Raises
+    ------
+    gbpipe.errors.DataError
+        A count that is not whole or decreases, an angle that decreases, or an analog
+        threshold outside the signal; naming the sample and the fix.
+    """
     if sig.tacho == "count":
-        steps = np.diff(values)
-        if np.any(steps < 0):
-            i = int(np.flatnonzero(steps < 0)[0])
-            raise DataError(source, "pulse count decreases (counter reset or wrap): "
-                            "field 'tacho: count' needs a cumulative count", sample=i + 1)
-        steps = np.rint(steps).astype(np.int64)
-        idx = np.repeat(np.arange(steps.size), steps)
-        # n pulses between samples k and k+1: spread evenly inside the interval
-        within = np.arange(idx.size) - np.repeat(np.cumsum(steps) - steps, steps)
-        return t0 + (idx + (within + 0.5) / np.repeat(steps, steps)) * dt
-    try:
-        return pulse_times_from_tacho(values, 1.0 / dt, threshold=sig.threshold,
-                                      hysteresis=sig.hysteresis, edge=sig.edge, t0=t0)
-    except ValueError as exc:
-        raise DataError(f"{source}: field 'threshold'/'hysteresis'", str(exc)) from exc
+        frac = np.abs(values - np.rint(values))
+        if np.any(frac > 1e-9 * np.maximum(1.0, np.abs(values))):
+            i = int(np.argmax(frac > 1e-9 * np.maximum(1.0, np.abs(values))))
+            raise DataError(f"{source}: field 'tacho'", f"value {values[i]:.9g} is not a "
+                            f"whole count: tacho: count needs a counter of whole counts "
+                            f"(use scale: for counts per pulse); a cumulative encoder "
+                            f"angle is tacho: angle with its unit:", sample=i)
+        # a counter floors the true count: the best estimate is half a count above
+        position = values * sig.scale + sig.offset + 0.5 * abs(sig.scale)
+        what = "pulse count (value * scale + offset)"
+    elif sig.tacho == "angle":
+        position = values * (sig.pulses_per_rev / (2.0 * np.pi))
+        what = "encoder angle"
+    else:
+        try:
+            return pulse_times_from_tacho(values, 1.0 / dt, threshold=sig.threshold,
+                                          hysteresis=sig.hysteresis, edge=sig.edge, t0=t0)
+        except ValueError as exc:
+            raise DataError(f"{source}: field 'threshold'/'hysteresis'", str(exc)) from exc
+    return t0 + dt * crossings(position, source, what)
+
+
+def crossings(position: np.ndarray, source: str, what: str) -> np.ndarray:
+    """Fractional sample indices where a non-decreasing ``position`` [pulses] reaches each
+    whole number, by linear interpolation between the two samples that bracket it (exact
+    when the position moves at a constant rate between them).
+
+    Raises
+    ------
+    gbpipe.errors.DataError
+        At the first sample where ``position`` decreases.
+    """
+    back = np.flatnonzero(np.diff(position) < 0)
+    if back.size:
+        raise DataError(source, f"the {what} decreases (a counter reset or wrap, a wrapped "
+                        f"angle, or reverse rotation): a tacho needs a cumulative, "
+                        f"increasing position; for reverse rotation give scale: -1",
+                        sample=int(back[0]) + 1)
+    marks = np.arange(np.floor(position[0]) + 1.0, np.floor(position[-1]) + 1.0)
+    after = np.searchsorted(position, marks, side="left")  # first sample >= each mark
+    below = position[after - 1]
+    return after - 1 + (marks - below) / (position[after] - below)

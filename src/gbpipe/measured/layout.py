@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import json
 import logging
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from contextlib import ExitStack
 from pathlib import Path
 
@@ -24,15 +24,16 @@ from gbpipe.measured.spec import RecordSpec, SignalSpec
 from gbpipe.measured.timebase import Piece, intersect, pieces
 
 __all__ = ["TOL", "open_checked", "epochs", "conversion", "convert", "source_label",
-           "long_name", "to_pieces", "grids", "piece_at", "time_coord", "add_tachos",
-           "pulse_times", "record_attrs"]
+           "long_name", "variable_attrs", "to_pieces", "time_of", "grids", "piece_at",
+           "time_coord", "add_tachos", "pulse_times", "record_attrs"]
 
 log = logging.getLogger(__name__)
 
 #: grid tolerance [samples]: clock fits are exact to ~1e-9 sample
 TOL = 1e-6
 
-_LONG = {"value": "{name} (measured, {channel})", "angle": "{name}: speed from encoder "
+_LONG = {"value": "{name} (measured, {channel})",
+         "setpoint": "{name} (set-point, {channel})", "angle": "{name}: speed from encoder "
          "angle {channel}", "tacho": "{name}: tachometer pulse time from {channel}"}
 
 
@@ -46,10 +47,27 @@ def long_name(sig: SignalSpec) -> str:
     return _LONG[sig.quantity].format(name=sig.name, channel=sig.channel)
 
 
+def variable_attrs(sig: SignalSpec, unit: str, notes: Mapping[str, list[str]]) -> dict:
+    """Attributes of a signal's variable: ``units``, ``long_name``, the levels of its
+    value checks (``checks``) and, if any, the warnings they gave (``check_warnings``)."""
+    attrs = {"units": unit, "long_name": long_name(sig),
+             "checks": ", ".join(f"{k}: {v}" for k, v in sig.checks.items())}
+    if notes.get(sig.name):
+        attrs["check_warnings"] = "; ".join(notes[sig.name])
+    return attrs
+
+
+def _is_angle(sig: SignalSpec) -> bool:
+    """Whether the signal's values are an angle: ``quantity: angle``, or a tacho from a
+    cumulative encoder angle (``tacho: angle``)."""
+    return sig.quantity == "angle" or (sig.quantity == "tacho" and sig.tacho == "angle")
+
+
 def _check_angle(sig: SignalSpec, si_unit: str, where: str) -> None:
-    if sig.quantity == "angle" and si_unit != "rad":
-        raise DataError(f"{where}: field 'unit'", f"quantity: angle needs an angle unit "
-                        f"(deg, rad, rev); got {sig.unit or si_unit!r}")
+    if _is_angle(sig) and si_unit != "rad":
+        raise DataError(f"{where}: field 'unit'", f"an encoder angle (quantity: angle or "
+                        f"tacho: angle) needs an angle unit (deg, rad, rev); got "
+                        f"{sig.unit or si_unit!r}")
 
 
 def open_checked(rec: RecordSpec, base: Path, stack: ExitStack) -> dict[str, Source]:
@@ -62,7 +80,7 @@ def open_checked(rec: RecordSpec, base: Path, stack: ExitStack) -> dict[str, Sou
         sources[key] = src
     for sig in rec.signals.values():
         find(sig.channel, sources[sig.file].names(), str(base / rec.files[sig.file].path))
-        if sig.unit is not None and sig.quantity != "tacho":
+        if sig.unit is not None and (sig.quantity != "tacho" or _is_angle(sig)):
             where = source_label(rec, sig, base)
             _check_angle(sig, to_si(sig.unit, where)[2], where)
     return sources
@@ -111,22 +129,33 @@ def convert(v: np.ndarray, steps: list[tuple[float, float]]) -> np.ndarray:
 
 
 def to_pieces(rec: RecordSpec, sig: SignalSpec, ch: Channel, base: Path, shift: float,
-              units: dict[str, str]) -> list[Piece]:
+              units: dict[str, str], notes: dict[str, list[str]]) -> list[Piece]:
     """Checked, SI-converted, gap-handled pieces of one channel read into memory, on the
-    common clock; the SI unit goes into ``units``."""
+    common clock; the SI unit goes into ``units``, the check warnings into ``notes``."""
     where = source_label(rec, sig, base)
     if ch.values.size == 0:
         raise DataError(where, "the channel holds no samples")
     values = checks.finite(ch.values, where, rec.interpolate_upto)
     if sig.quantity != "tacho":
-        # An encoder angle legitimately stays at its maximum when the shaft stops:
-        # only the converter range can tell it clipped.
-        checks.clipping(values, where, sig.range, flat_top=sig.quantity != "angle")
+        found = checks.clipping(values, sig.range, flat_top=sig.checks["flat_top"] != "off")
+        notes[sig.name] = checks.enforce(found, sig.checks, where, time_of(ch))
         steps, units[sig.name] = conversion(ch.unit, sig, where)
         values = convert(values, steps)
+    elif sig.tacho == "angle":  # to rad; a counter is scaled in derived.pulse_times
+        values = convert(values, conversion(ch.unit, sig, where)[0])
     time = ch.time if ch.time is None or shift == 0.0 else ch.time + shift
     return pieces(values, where, t0=None if ch.t0 is None else ch.t0 + shift, dt=ch.dt,
                   time=time, gaps=rec.gaps, interpolate_upto=rec.interpolate_upto)
+
+
+def time_of(ch) -> Callable[[int], float]:
+    """Sample index -> time [s] on the file's clock, of a channel (in memory or streamed:
+    ``time`` an array or a column)."""
+    if ch.time is None:
+        return lambda k: ch.t0 + k * ch.dt
+    if isinstance(ch.time, np.ndarray):
+        return lambda k: float(ch.time[k])
+    return lambda k: float(ch.time.read(k, k + 1)[0])
 
 
 def grids(windows: Mapping[str, list[tuple[float, float]]], start: float,
@@ -187,10 +216,11 @@ def pulse_times(rec: RecordSpec, sig: SignalSpec, plist: list[Piece], base: Path
 
 
 def record_attrs(rec: RecordSpec, base: Path, channels: Mapping[str, object], start: float,
-                 clock: str, *, hash_files: bool = True) -> dict[str, object]:
-    """The record's attributes (``docs/measured.md``, "The record"); ``hash_files=False``
-    leaves out ``source_files`` (for a writer that stores it itself: hashing a long
-    record's files takes seconds)."""
+                 clock: str, notes: Mapping[str, list[str]], *,
+                 hash_files: bool = True) -> dict[str, object]:
+    """The record's attributes (``docs/measured.md``, "The record"); ``notes`` are the
+    check warnings per signal; ``hash_files=False`` leaves out ``source_files`` (for a
+    writer that stores it itself: hashing a long record's files takes seconds)."""
     attrs: dict[str, object] = {}
     known = [c.epoch for c in channels.values() if c.epoch is not None]
     if known and len(known) == len(channels):
@@ -205,8 +235,10 @@ def record_attrs(rec: RecordSpec, base: Path, channels: Mapping[str, object], st
         "gaps": rec.gaps if rec.gaps != "interpolate" else
         f"interpolate_upto {rec.interpolate_upto}",
         "signal_sources": json.dumps({s.name: {"file": rec.files[s.file].path,
-                                               "channel": s.channel, "quantity": s.quantity}
+                                               "channel": s.channel, "quantity": s.quantity,
+                                               "checks": dict(s.checks)}
                                       for s in rec.signals.values()}),
+        "check_warnings": json.dumps({k: v for k, v in notes.items() if v}),
     })
     if hash_files:
         attrs["source_files"] = json.dumps(source_files(base / f.path

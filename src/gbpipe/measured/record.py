@@ -94,7 +94,9 @@ def _in_memory(rec: RecordSpec, base: Path, min_duration: float | None) -> xr.Da
     raw = _read_channels(rec, base)
     shift, clock = layout.epochs(raw)
     units: dict[str, str] = {}
-    converted = {sname: layout.to_pieces(rec, rec.signals[sname], ch, base, shift[sname], units)
+    notes: dict[str, list[str]] = {}
+    converted = {sname: layout.to_pieces(rec, rec.signals[sname], ch, base, shift[sname], units,
+                                         notes)
                  for sname, ch in raw.items()}
     start, _ = overlap({layout.source_label(rec, rec.signals[n], base): (p[0].t0, p[-1].end)
                         for n, p in converted.items()})
@@ -115,9 +117,9 @@ def _in_memory(rec: RecordSpec, base: Path, min_duration: float | None) -> xr.Da
             continue
         unit = "rad/s" if sig.quantity == "angle" else units[sname]
         ds[sname] = ("time", _on_grid(plist, segs, start, fs, sig.quantity == "angle"),
-                     {"units": unit, "long_name": layout.long_name(sig)})
+                     layout.variable_attrs(sig, unit, notes))
     ds = layout.add_tachos(ds, rec, pulses)
-    ds.attrs.update(layout.record_attrs(rec, base, raw, start, clock))
+    ds.attrs.update(layout.record_attrs(rec, base, raw, start, clock, notes))
     return ds
 
 

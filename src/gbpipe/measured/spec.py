@@ -15,15 +15,34 @@ from typing import Any
 
 from gbpipe.errors import ConfigError
 
-__all__ = ["FileSpec", "SignalSpec", "RecordSpec", "parse", "GAP_POLICIES"]
+__all__ = ["FileSpec", "SignalSpec", "RecordSpec", "parse", "GAP_POLICIES", "CHECKS",
+           "LEVELS", "default_checks"]
 
 GAP_POLICIES = ("refuse", "split")
 _RECORD_KEYS = ("files", "sample_rate", "signals", "gaps")
 _FILE_KEYS = ("path", "format", "time", "sample_rate", "delimiter", "decimal", "header",
-              "time_unit")
+              "time_unit", "interleaved")
 _SIGNAL_KEYS = ("file", "channel", "unit", "scale", "offset", "quantity", "pulses_per_rev",
-                "threshold", "hysteresis", "edge", "range", "tacho")
-_QUANTITIES = ("value", "angle", "tacho")
+                "threshold", "hysteresis", "edge", "range", "tacho", "checks")
+#: ``setpoint``: a value that is held between updates (set-points, slowly updated drive
+#: readings), where long constant stretches are normal
+_QUANTITIES = ("value", "setpoint", "angle", "tacho")
+_TACHO_KINDS = ("analog", "count", "angle")
+#: the checks of a channel's values that ``checks:`` sets, and their levels
+CHECKS = ("flat_top", "range")
+LEVELS = ("off", "warn", "error")
+
+
+def default_checks(quantity: str) -> dict[str, str]:
+    """The level of each value check for a signal of ``quantity``.
+
+    A flat top is only a hint of clipping (a set-point or a held reading sits at its
+    extreme legitimately, an encoder angle rests when the shaft stops): a warning for
+    values, off for set-points, angles and tachos. A sample beyond the declared
+    ``range:`` is clipping for sure: an error.
+    """
+    flat = "warn" if quantity == "value" else "off"
+    return {"flat_top": flat, "range": "error"}
 
 
 @dataclass(frozen=True)
@@ -39,6 +58,7 @@ class FileSpec:
     decimal: str = "."
     header: int = 0
     time_unit: str = "s"
+    interleaved: tuple[str, ...] | None = None
 
 
 @dataclass(frozen=True)
@@ -58,6 +78,11 @@ class SignalSpec:
     edge: str = "rising"
     range: tuple[float, float] | None = None
     tacho: str = "analog"
+    checks: Mapping[str, str] | None = None
+
+    def __post_init__(self) -> None:
+        if self.checks is None:
+            object.__setattr__(self, "checks", default_checks(self.quantity))
 
 
 @dataclass(frozen=True)
@@ -111,7 +136,32 @@ def _file(key: str, value: Any, field: str) -> FileSpec:
         sample_rate=None if rate is None else _positive(rate, f"{field}.sample_rate"),
         delimiter=m.get("delimiter"), decimal=str(m.get("decimal", ".")),
         header=_count(m.get("header", 0), f"{field}.header"),
-        time_unit=str(m.get("time_unit", "s")))
+        time_unit=str(m.get("time_unit", "s")),
+        interleaved=_columns(m.get("interleaved"), f"{field}.interleaved"))
+
+
+def _columns(value: Any, field: str) -> tuple[str, ...] | None:
+    """The column names of an ``interleaved:`` file: at least two, distinct."""
+    if value is None:
+        return None
+    if (not isinstance(value, list | tuple) or len(value) < 2
+            or len({str(v) for v in value}) != len(value)):
+        raise ConfigError(field, f"must list the file's column names in their order "
+                          f"(at least two, distinct); got {value!r}")
+    return tuple(str(v) for v in value)
+
+
+def _checks(value: Any, field: str, quantity: str) -> dict[str, str]:
+    """The signal's check levels: the defaults of its quantity, changed by ``checks:``."""
+    levels = default_checks(quantity)
+    if value is None:
+        return levels
+    for key, level in _mapping(value, field, CHECKS).items():
+        if level not in LEVELS:
+            raise ConfigError(f"{field}.{key}", f"must be one of {', '.join(LEVELS)}; "
+                              f"got {level!r}")
+        levels[key] = level
+    return levels
 
 
 def _count(value: Any, field: str) -> int:
@@ -147,14 +197,16 @@ def _signal(name: str, value: Any, field: str, files: Mapping[str, FileSpec]) ->
     if edge not in ("rising", "falling"):
         raise ConfigError(f"{field}.edge", f"must be 'rising' or 'falling'; got {edge!r}")
     tacho = m.get("tacho", "analog")
-    if tacho not in ("analog", "count"):
-        raise ConfigError(f"{field}.tacho", f"must be 'analog' or 'count'; got {tacho!r}")
+    if tacho not in _TACHO_KINDS:
+        raise ConfigError(f"{field}.tacho", f"must be one of {', '.join(_TACHO_KINDS)}; "
+                          f"got {tacho!r}")
     opt = {k: _number(m[k], f"{field}.{k}") for k in ("threshold", "hysteresis") if k in m}
     return SignalSpec(
         name=name, file=str(m["file"]), channel=str(m["channel"]), unit=m.get("unit"),
         scale=_number(m.get("scale", 1.0), f"{field}.scale"),
         offset=_number(m.get("offset", 0.0), f"{field}.offset"), quantity=quantity,
-        pulses_per_rev=ppr, edge=edge, range=rng, tacho=tacho, **opt)
+        pulses_per_rev=ppr, edge=edge, range=rng, tacho=tacho,
+        checks=_checks(m.get("checks"), f"{field}.checks", quantity), **opt)
 
 
 def parse(spec: Mapping[str, Any], name: str = "record") -> RecordSpec:

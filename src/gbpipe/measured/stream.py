@@ -101,13 +101,14 @@ def _speed_reader(piece: StreamPiece, fs: float):
 
 
 def _pieces(rec: RecordSpec, sig: SignalSpec, ch: StreamChannel, where: str, shift: float,
-            units: dict[str, str]) -> list[StreamPiece]:
+            units: dict[str, str], notes: dict[str, list[str]]) -> list[StreamPiece]:
     """Checked gap-free pieces of a streamed channel (the twin of
     :func:`gbpipe.measured.layout.to_pieces`)."""
     if ch.values.size == 0:
         raise DataError(where, "the channel holds no samples")
-    column = checks.scan(ch.values, where, rec.interpolate_upto, sig.range,
-                         flat_top=sig.quantity != "angle")
+    column, found = checks.scan(ch.values, where, rec.interpolate_upto, sig.range,
+                                flat_top=sig.checks["flat_top"] != "off")
+    notes[sig.name] = checks.enforce(found, sig.checks, where, layout.time_of(ch))
     steps, units[sig.name] = layout.conversion(ch.unit, sig, where)
     if ch.time is None:
         runs = [(0, ch.values.size, ch.t0 + shift, ch.dt)]
@@ -148,14 +149,16 @@ def write_record(rec: RecordSpec, base: Path, out: str | os.PathLike, *,
         chans = _open(rec, base, stack)
         shift, clock = layout.epochs(chans)
         units: dict[str, str] = {}
+        notes: dict[str, list[str]] = {}
         plan, tachos = {}, {}
         for sname, ch in chans.items():
             sig = rec.signals[sname]
             if sig.quantity == "tacho":
-                tachos[sname] = layout.to_pieces(rec, sig, _whole(ch), base, shift[sname], units)
+                tachos[sname] = layout.to_pieces(rec, sig, _whole(ch), base, shift[sname], units,
+                                                 notes)
             else:
                 plan[sname] = _pieces(rec, sig, ch, layout.source_label(rec, sig, base),
-                                      shift[sname], units)
+                                      shift[sname], units, notes)
         windows = {n: [(p.t0, p.end) for p in plist]
                    for n, plist in {**plan, **tachos}.items()}
         windows = {n: windows[n] for n in rec.signals}
@@ -167,8 +170,8 @@ def write_record(rec: RecordSpec, base: Path, out: str | os.PathLike, *,
         duration = (segs[-1][0] + segs[-1][1] - 1) / fs
         pulses = {n: layout.pulse_times(rec, rec.signals[n], plist, base, start, duration, fs)
                   for n, plist in tachos.items()}
-        template = _template(rec, plan, units, pulses)
-        template.attrs.update(layout.record_attrs(rec, base, chans, start, clock,
+        template = _template(rec, plan, units, notes, pulses)
+        template.attrs.update(layout.record_attrs(rec, base, chans, start, clock, notes,
                                                   hash_files=False))
 
         def fill(nc: netCDF4.Dataset) -> None:
@@ -179,7 +182,8 @@ def write_record(rec: RecordSpec, base: Path, out: str | os.PathLike, *,
 
 
 def _template(rec: RecordSpec, plan: Mapping[str, list[StreamPiece]],
-              units: Mapping[str, str], pulses: Mapping[str, np.ndarray]) -> xr.Dataset:
+              units: Mapping[str, str], notes: Mapping[str, list[str]],
+              pulses: Mapping[str, np.ndarray]) -> xr.Dataset:
     """The record with a two-sample time axis: every variable and its metadata."""
     ds = xr.Dataset(coords={"time": layout.time_coord(np.arange(2) / rec.sample_rate)})
     if rec.gaps == "split":
@@ -188,7 +192,7 @@ def _template(rec: RecordSpec, plan: Mapping[str, list[StreamPiece]],
     for sname in plan:
         sig = rec.signals[sname]
         unit = "rad/s" if sig.quantity == "angle" else units[sname]
-        ds[sname] = ("time", np.zeros(2), {"units": unit, "long_name": layout.long_name(sig)})
+        ds[sname] = ("time", np.zeros(2), layout.variable_attrs(sig, unit, notes))
     return layout.add_tachos(ds, rec, pulses)
 
 

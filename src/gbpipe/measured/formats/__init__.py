@@ -22,7 +22,7 @@ from gbpipe.measured.columns import StreamChannel, from_channel
 from gbpipe.measured.formats import delimited, mat, mdf, tdms, uff
 from gbpipe.measured.spec import FileSpec
 
-__all__ = ["Source", "StreamingSource", "open_source", "open_streams", "FORMATS",
+__all__ = ["Source", "open_source", "open_streams", "FORMATS",
            "STREAMED", "format_of"]
 
 #: format name -> (reader class, file suffixes)
@@ -45,12 +45,6 @@ class Source(Protocol):
     def prefetch(self, names: list[str]) -> None: ...
 
     def close(self) -> None: ...
-
-
-class StreamingSource(Source, Protocol):
-    """A reader that also gives channels for block-wise reading."""
-
-    def stream(self, name: str) -> StreamChannel: ...
 
 
 #: formats whose readers stream (the others are read into memory, then wrapped)
@@ -100,5 +94,9 @@ def open_source(fspec: FileSpec, base_dir: str | Path = ".") -> Source:
                         f"paths are relative to {Path(base_dir).resolve()}")
     if path.stat().st_size == 0:
         raise DataError(f"{path}", "the file is empty (0 bytes)")
-    cls = FORMATS[format_of(path, fspec.format)][0]
-    return cls(path, fspec)
+    fmt = format_of(path, fspec.format)
+    if fspec.interleaved is not None and fmt != "tdms":
+        raise DataError(f"{path}: field 'interleaved'", f"interleaved columns are read from "
+                        f"TDMS files; a {fmt} file stores columns itself (MAT: address a "
+                        f"column of a 2-D array as name[:, k])")
+    return FORMATS[fmt][0](path, fspec)

@@ -11,6 +11,11 @@ block by block, so memory stays at one float64 copy of the channels asked for.
 :meth:`TdmsSource.stream` reads nothing: it returns the channel as a :class:`TdmsColumn`
 that the streaming reader (:mod:`gbpipe.measured.stream`) reads block by block.
 
+Interleaved columns without metadata: a file whose only channel (say
+``Measurements/Time``) holds ``n`` columns row by row, the mapping naming the columns
+(``interleaved: [Time, MotorTorqueSet, ...]``): column ``k`` is ``values[k::n]``; its
+time base is a column (``time:``) or ``sample_rate:`` [rows/s], its unit the mapping's.
+
 ``NI_ArrayColumn`` layout: some NI programs store a 2-D array as channels carrying the
 property ``NI_ArrayColumn = k``, with every column interleaved (row-major) in the first
 channel (column 0) and the other channels empty. Column ``k`` is then
@@ -56,6 +61,23 @@ class TdmsSource:
                             f"complete file, or cut it at the last complete segment")
         self._channels = {f"{g.name}/{c.name}": c
                           for g in self._file.groups() for c in g.channels()}
+        #: column name -> index, for a file whose columns are interleaved in one channel
+        self._index: dict[str, int] = {}
+        if fspec.interleaved is not None:
+            carrier = self._carrier()
+            self._index = {c: k for k, c in enumerate(fspec.interleaved)}
+            self._channels = dict.fromkeys(fspec.interleaved, carrier)
+
+    def _carrier(self):
+        """The one non-empty channel that holds the ``interleaved:`` columns."""
+        full = [n for n, c in self._channels.items() if len(c)]
+        if len(full) != 1:
+            self._file.close()
+            raise DataError(f"{self.path}: field 'interleaved'", f"{len(full)} channels hold "
+                            f"data ({', '.join(full) or 'none'}); interleaved: reads files "
+                            f"whose columns all sit in one channel: map the channels by "
+                            f"name instead")
+        return self._channels[full[0]]
 
     def names(self) -> list[str]:
         return list(self._channels)
@@ -80,6 +102,9 @@ class TdmsSource:
         return first, int(ch.properties["NI_ArrayColumn"]), len(cols)
 
     def _column(self, name: str, ch) -> TdmsColumn:
+        if self._index:
+            return TdmsColumn(ch, self._index[name], len(self._index),
+                              f"{self.path}: channel '{name}'")
         layout = self._array_column(ch)
         src, k, ncol = (ch, 0, 1) if layout is None else layout
         return TdmsColumn(src, k, ncol, f"{self.path}: channel '{name}'")
@@ -93,22 +118,27 @@ class TdmsSource:
         ch = self._channels[name]
         base = self._waveform(name, ch)
         if base is not None:
-            return Channel(self._data(name, ch), ch.properties.get("unit_string") or None,
-                           t0=base[0], dt=base[1], epoch=base[2])
+            return Channel(self._data(name, ch), self._unit(ch), t0=base[0], dt=base[1],
+                           epoch=base[2])
 
         def read_time(tname: str) -> np.ndarray:
             tname = find(tname, self.names(), f"{self.path} (field 'time')")
             return self._data(tname, self._channels[tname])
 
-        return attach(self._data(name, ch), ch.properties.get("unit_string") or None,
-                      self.fspec, str(self.path), name, read_time)
+        return attach(self._data(name, ch), self._unit(ch), self.fspec, str(self.path), name,
+                      read_time)
+
+    def _unit(self, ch) -> str | None:
+        """The channel's ``unit_string``; none for interleaved columns (the carrier's unit
+        is not theirs)."""
+        return None if self._index else ch.properties.get("unit_string") or None
 
     def stream(self, name: str) -> StreamChannel:
         """The channel ``name`` for block-wise reading (nothing is read yet)."""
         name = find(name, self.names(), str(self.path))
         ch = self._channels[name]
         values = self._column(name, ch)
-        unit = ch.properties.get("unit_string") or None
+        unit = self._unit(ch)
         base = self._waveform(name, ch)
         if base is not None:
             return StreamChannel(values, unit, t0=base[0], dt=base[1], epoch=base[2])
@@ -122,7 +152,8 @@ class TdmsSource:
         """(t0 [s], dt [s], absolute epoch) from the waveform properties, when the mapping
         gives no ``time:`` channel and the channel has ``wf_increment``; else ``None``."""
         props = ch.properties
-        if self.fspec.time is not None or "wf_increment" not in props:
+        # interleaved: the carrier's increment is per value, not per row of columns
+        if self.fspec.time is not None or "wf_increment" not in props or self._index:
             return None
         dt = float(props["wf_increment"])
         if not dt > 0:
@@ -150,8 +181,9 @@ class TdmsColumn:
     def __init__(self, channel, k: int, ncol: int, source: str) -> None:
         total = len(channel)
         if total % ncol:
-            raise DataError(source, f"NI_ArrayColumn layout: {total} values in column 0 is "
-                            f"not a multiple of {ncol} columns")
+            raise DataError(source, f"interleaved columns: {total} values in the channel "
+                            f"that holds them is not a multiple of {ncol} columns (check "
+                            f"the column list: interleaved:, or NI_ArrayColumn)")
         self.channel, self.k, self.ncol, self.source = channel, k, ncol, source
         self.size = total // ncol
 
