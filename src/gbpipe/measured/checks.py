@@ -65,12 +65,11 @@ def finite(values: np.ndarray, source: str, bridge_upto: int = 0) -> np.ndarray:
 @dataclass(frozen=True)
 class Finding:
     """A clipping sign in a channel: ``check`` (``"range"`` or ``"flat_top"``), what was
-    seen, its first sample and the number of samples involved."""
+    seen (with how many samples) and its first sample."""
 
     check: str
     what: str
     sample: int
-    length: int
 
 
 def clipping(values: np.ndarray,
@@ -132,8 +131,7 @@ def enforce(findings: list[Finding], levels: Mapping[str, str], source: str,
         level = levels[f.check]
         if level == "off":
             continue
-        where = (f"from sample {f.sample} (t = {time_of(f.sample):.9g} s on the file's "
-                 f"clock), {f.length} samples")
+        where = f"from sample {f.sample} (t = {time_of(f.sample):.9g} s on the file's clock)"
         if level == "error":
             raise DataError(source, f"clipped: {f.what}, {where}; {_FIX[f.check]}",
                             sample=f.sample)
@@ -163,8 +161,12 @@ def _refuse_nan(starts: np.ndarray, lengths: np.ndarray, size: int, n_bad: int, 
         i = over[0]
         why = "" if not bridge_upto else f" (longer than interpolate_upto = {bridge_upto}, " \
             "or at an end)"
-        raise DataError(source, f"{lengths[i]} NaN/inf sample(s){why}; {n_bad} in all",
-                        sample=int(starts[i]))
+        fix = ("cut the record before it, or re-export the file without the dropout" if
+               bridge_upto else f"bridge runs of up to N samples with gaps: "
+               f"{{interpolate_upto: N}} (this one needs N >= {lengths[i]}), or cut the "
+               f"record before it")
+        raise DataError(source, f"{lengths[i]} NaN/inf sample(s){why}; {n_bad} in all; "
+                        f"fix: {fix}", sample=int(starts[i]))
 
 
 def _beyond(values: np.ndarray, converter_range: tuple[float, float]) -> np.ndarray:
@@ -175,12 +177,12 @@ def _range_finding(converter_range: tuple[float, float], count: int,
                    first: int) -> Finding:
     lo, hi = converter_range
     return Finding("range", f"{count} sample(s) at or beyond the converter range "
-                   f"[{lo:g}, {hi:g}] (field 'range')", first, count)
+                   f"[{lo:g}, {hi:g}] (field 'range')", first)
 
 
 def _flat_finding(n: int, word: str, extreme: float, runs: int, first: int) -> Finding:
     return Finding("flat_top", f"flat top of {n} samples at the {word} {extreme:g} "
-                   f"({runs} such run(s))", first, n)
+                   f"({runs} such run(s))", first)
 
 
 def length(n: int, fs: float, source: str, min_duration: float | None) -> None:
