@@ -45,11 +45,11 @@ def revolutions(t):
     return 25.0 * t - 100.0 / 60.0 / (2 * np.pi * 0.5) * (np.cos(2 * np.pi * 0.5 * t) - 1.0)
 
 
-def logger_columns(seed: int = 7) -> dict[str, np.ndarray]:
-    """The columns as the logger wrote them (a dropped row, a clock jump)."""
+def logger_columns(seed: int = 7, jump: float = JUMP) -> dict[str, np.ndarray]:
+    """The columns as the logger wrote them (a dropped row, a clock jump of ``jump`` s)."""
     rng = np.random.default_rng(seed)
     k = np.arange(ROWS)
-    t = k / FS + np.where(k >= JUMP_AT, JUMP, 0.0)
+    t = k / FS + np.where(k >= JUMP_AT, jump, 0.0)
     burst = ((k % 2000) >= 500) & ((k % 2000) < 1300)       # bursts of 0.8 s, 0 between
     setpoint = np.where(burst, 1500.0, 0.0)
     speed = speed_rpm(t[(k // HOLD) * HOLD])                # held between drive updates
@@ -111,7 +111,7 @@ def test_values_read_equal_the_written_ones(logged):
     tmp, cols = logged
     ds = read(mapping(), tmp)
     stamps = ds.time.values + ds.attrs["record_start_s"]
-    row = np.searchsorted(cols["Time"], stamps)
+    row = np.searchsorted(cols["Time"], stamps - 0.5 / FS)  # the nearest written row
     np.testing.assert_allclose(cols["Time"][row], stamps, rtol=0, atol=1e-9)
     # the dropped row and the clock jump cut the record into three gap-free segments
     assert np.unique(ds.segment.values).size == 3 and ds.time.size == ROWS - 1
@@ -121,6 +121,28 @@ def test_values_read_equal_the_written_ones(logged):
     np.testing.assert_allclose(ds.speed_motor.values,
                                cols["MotorSpeed"][row] * 2 * np.pi / 60, rtol=1e-12)
     assert ds.speed_motor.attrs["units"] == "rad/s" and ds.torque_ref.attrs["units"] == "N m"
+
+
+def test_dropped_row_bridged(tmp_path):
+    """Without the clock jump, interpolate_upto: 1 bridges the dropped row with the
+    straight line between its neighbours, and keeps every written row as written."""
+    cols = logger_columns(jump=0.0)
+    write_interleaved(tmp_path / "run.tdms", cols)
+    spec = {**mapping(), "gaps": {"interpolate_upto": 1}}
+    ds = read(spec, tmp_path)
+    assert ds.time.size == ROWS and "segment" not in ds.coords
+    t = ds.time.values + ds.attrs["record_start_s"]
+    np.testing.assert_allclose(t, np.arange(ROWS) / FS, rtol=0, atol=1e-9)
+    kept = np.delete(np.arange(ROWS), DROPPED)        # the written rows, in record samples
+    np.testing.assert_allclose(ds.motor_torque.values[kept], cols["MotorTorque"],
+                               rtol=1e-12, atol=1e-9)
+    mid = 0.5 * (cols["MotorTorque"][DROPPED - 1] + cols["MotorTorque"][DROPPED])
+    assert ds.motor_torque.values[DROPPED] == pytest.approx(mid, rel=1e-12)
+    # the 250-sample clock jump is longer than the bridge: refused where it is
+    write_interleaved(tmp_path / "run.tdms", logger_columns())
+    with pytest.raises(DataError, match=rf"run.tdms: channel 'MotorTorqueSet' \(time\) at "
+                       rf"sample {JUMP_AT - 1}: gap of 0.25 s \(250 missing"):
+        read(spec, tmp_path)
 
 
 def test_flat_tops_are_warnings_with_position(logged):

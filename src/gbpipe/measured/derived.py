@@ -38,7 +38,8 @@ from gbpipe.errors import DataError
 from gbpipe.harmonics.tacho import pulse_times_from_tacho
 from gbpipe.measured.spec import SignalSpec
 
-__all__ = ["speed_from_angle", "savgol_window", "pulse_times", "crossings", "POLYORDER",
+__all__ = ["speed_from_angle", "savgol_window", "pulse_times", "whole_counts", "crossings",
+           "POLYORDER",
            "GAIN_TOL", "BAND"]
 
 log = logging.getLogger(__name__)
@@ -90,18 +91,12 @@ def pulse_times(values: np.ndarray, t0: float, dt: float, sig: SignalSpec,
     Raises
     ------
     gbpipe.errors.DataError
-        A count that is not whole or decreases, an angle that decreases, or an analog
-        threshold outside the signal; naming the sample and the fix.
+        A count or an angle that decreases, or an analog threshold outside the signal;
+        naming the sample and the fix (whole counts: :func:`whole_counts`).
     """
     if sig.tacho == "count":
-        frac = np.abs(values - np.rint(values))
-        if np.any(frac > 1e-9 * np.maximum(1.0, np.abs(values))):
-            i = int(np.argmax(frac > 1e-9 * np.maximum(1.0, np.abs(values))))
-            raise DataError(f"{source}: field 'tacho'", f"value {values[i]:.9g} is not a "
-                            f"whole count: tacho: count needs a counter of whole counts "
-                            f"(use scale: for counts per pulse); a cumulative encoder "
-                            f"angle is tacho: angle with its unit:", sample=i)
         # a counter floors the true count: the best estimate is half a count above
+        # (bridged samples, between whole counts, are on the same straight line)
         position = values * sig.scale + sig.offset + 0.5 * abs(sig.scale)
         what = "pulse count (value * scale + offset)"
     elif sig.tacho == "angle":
@@ -114,6 +109,24 @@ def pulse_times(values: np.ndarray, t0: float, dt: float, sig: SignalSpec,
         except ValueError as exc:
             raise DataError(f"{source}: field 'threshold'/'hysteresis'", str(exc)) from exc
     return t0 + dt * crossings(position, source, what)
+
+
+def whole_counts(values: np.ndarray, source: str) -> None:
+    """Refuse a ``tacho: count`` channel whose values are not whole counts (checked on the
+    samples as read, before NaN runs or time gaps are bridged).
+
+    Raises
+    ------
+    gbpipe.errors.DataError
+        At the first value that is not a whole count, with the fix.
+    """
+    off = np.abs(values - np.rint(values)) > 1e-9 * np.maximum(1.0, np.abs(values))
+    if off.any():
+        i = int(np.argmax(off))
+        raise DataError(f"{source}: field 'tacho'", f"value {values[i]:.9g} is not a whole "
+                        f"count: tacho: count needs a counter of whole counts (use scale: "
+                        f"for counts per pulse); a cumulative encoder angle is tacho: "
+                        f"angle with its unit:", sample=i)
 
 
 def crossings(position: np.ndarray, source: str, what: str) -> np.ndarray:

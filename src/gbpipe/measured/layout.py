@@ -135,6 +135,8 @@ def to_pieces(rec: RecordSpec, sig: SignalSpec, ch: Channel, base: Path, shift: 
     where = source_label(rec, sig, base)
     if ch.values.size == 0:
         raise DataError(where, "the channel holds no samples")
+    if sig.quantity == "tacho" and sig.tacho == "count":
+        derived.whole_counts(ch.values, where)
     values = checks.finite(ch.values, where, rec.interpolate_upto)
     if sig.quantity != "tacho":
         found = checks.clipping(values, sig.range, flat_top=sig.checks["flat_top"] != "off")
