@@ -105,3 +105,83 @@ def reference_zoh(a, b, c, d, u, dt=DT, x0=None) -> np.ndarray:
 def relative_error(y: np.ndarray, y_ref: np.ndarray) -> float:
     """Largest ``|y - y_ref|`` relative to the largest ``|y_ref|`` of the same output."""
     return float(np.max(np.abs(y - y_ref).max(axis=0) / np.abs(y_ref).max(axis=0)))
+
+
+# Discrete systems for the round-off-floor tests: all of 12 states, 2 inputs, 3 outputs,
+# lightly damped (slowest |lam| > 0.999), so that one batched recursion serves them all.
+N_STATES, N_INPUTS, N_OUTPUTS = 12, 2, 3
+
+
+def _rotation(radius: float, angle: float) -> np.ndarray:
+    """Real 2 x 2 block of the eigenvalue pair ``radius exp(±i angle)``."""
+    cos, sin = np.cos(angle), np.sin(angle)
+    return radius * np.array([[cos, sin], [-sin, cos]])
+
+
+def _mixed(core: np.ndarray, cond: float, rng: np.random.Generator):
+    """``V core V^-1`` with ``V = U diag(s) W^T`` (``U``, ``W`` random orthogonal, ``s``
+    geometric from 1 to ``1/cond``), and random B, C, D."""
+    n = core.shape[0]
+    v = (ortho_group.rvs(n, random_state=rng) @ np.diag(np.geomspace(1.0, 1.0 / cond, n))
+         @ ortho_group.rvs(n, random_state=rng))
+    return (v @ core @ np.linalg.inv(v), *_io(n, N_INPUTS, N_OUTPUTS, rng))
+
+
+def nonnormal_discrete(cond: float, seed: int):
+    """Discrete, 6 lightly damped pairs (|lam| 0.999-0.9999, 0.01-0.5 rad/sample), made
+    non-normal by an eigenvector matrix of condition ~ `cond` (``||A||`` grows with it)."""
+    rng = np.random.default_rng(seed)
+    core = np.zeros((N_STATES, N_STATES))
+    for i in range(0, N_STATES, 2):
+        core[i:i + 2, i:i + 2] = _rotation(rng.uniform(0.999, 0.9999), rng.uniform(0.01, 0.5))
+    return _mixed(core, cond, rng)
+
+
+def jordan_discrete(split: float, seed: int, cond: float = 1e3):
+    """Discrete, defective (``split`` 0) or near-defective: the real Jordan form of a
+    lightly damped pair repeated three times (6 states, |lam| 0.9995) beside a real
+    Jordan block of size 6 at 0.9992, diagonals detuned by ``split``; couplings 1e-3
+    (a discretised rate times the sample interval), mixed by condition `cond`."""
+    rng = np.random.default_rng(seed)
+    core = np.zeros((N_STATES, N_STATES))
+    for i in range(3):
+        core[2 * i:2 * i + 2, 2 * i:2 * i + 2] = _rotation(0.9995 * (1 + split * i), 0.2)
+        if i:
+            core[2 * i - 2:2 * i, 2 * i:2 * i + 2] = 1e-3 * np.eye(2)
+    core[6:, 6:] = (np.diag(0.9992 * (1 + split * np.arange(6))) + 1e-3 * np.eye(6, k=1))
+    return _mixed(core, cond, rng)
+
+
+def integrators_discrete(seed: int, cond: float = 1e4):
+    """Discrete triple integrator (Jordan block of size 3 at lam = 1, couplings 1e-3)
+    beside lightly damped pairs (|lam| 0.9995-0.9999) and one real pole at 0.999, mixed
+    by condition `cond`."""
+    rng = np.random.default_rng(seed)
+    core = np.zeros((N_STATES, N_STATES))
+    core[:3, :3] = np.eye(3) + 1e-3 * np.eye(3, k=1)
+    for i in range(3, N_STATES - 1, 2):
+        core[i:i + 2, i:i + 2] = _rotation(rng.uniform(0.9995, 0.9999), rng.uniform(0.01, 0.5))
+    core[-1, -1] = 0.999
+    return _mixed(core, cond, rng)
+
+
+def recursions(systems: list[tuple[np.ndarray, ...]], u: np.ndarray
+               ) -> tuple[np.ndarray, np.ndarray]:
+    """Outputs of the plain recursion ``x[k+1] = A x[k] + B u[k]``, ``y[k] = C x[k] +
+    D u[k]`` from ``x[0] = 0`` for each system, all driven by `u` (N, m): in extended
+    precision (``np.longdouble``, the reference) and in float64 (the round-off floor).
+
+    Returns (y_ld, y_64), each (n_systems, N, p); y_ld stays in extended precision. One
+    loop over samples for all systems (stacked matrices), independent of gbpipe.
+    """
+    out = []
+    for dtype in (np.longdouble, np.float64):
+        a, b, c, d = (np.stack([s[i] for s in systems]).astype(dtype) for i in range(4))
+        uk = u.astype(dtype)
+        x = np.zeros(a.shape[:2], dtype=dtype)
+        y = np.empty((len(systems), len(u), c.shape[1]), dtype=dtype)
+        for k in range(len(u)):
+            y[:, k] = np.einsum("sij,sj->si", c, x) + d @ uk[k]
+            x = np.einsum("sij,sj->si", a, x) + b @ uk[k]
+        out.append(y)
+    return out[0], out[1]
