@@ -31,7 +31,7 @@ import pandas as pd
 from scipy import linalg, signal
 
 #: Inertias of the seven nodes [kg m^2] (node 2 the pinion, node 3 the wheel).
-INERTIA = (0.8, 0.05, 0.02, 0.9, 0.3, 0.12, 2.5)
+INERTIA = (0.8, 0.05, 0.02, 0.9, 0.3, 0.05, 2.5)
 #: Stiffness of the motor's ground spring, then of the shafts 0-1, 1-2, 3-4, 4-5, 5-6 [N m/rad].
 STIFFNESS = (300.0, 4.0e4, 2.0e4, 4.0e5, 2.5e5, 1.5e5)
 #: Damping ratio of each element about its own two-inertia mode [-] (sets its c).

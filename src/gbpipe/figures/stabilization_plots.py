@@ -50,7 +50,7 @@ def stabilization_figure(ds: xr.Dataset, pairing: str, record: str,
     f = ds.frequency.values
     numbers: dict[str, str] = {}
     for ax, method in zip(axes[0], methods, strict=True):
-        m = d.sel(method=method)
+        m = d.sel({"method": method})
         for lo, hi in zip(ds.harmonic_low.values, ds.harmonic_high.values, strict=True):
             ax.axvspan(lo, hi, color="0.85", lw=0, zorder=0)
         order = m.order.values[:, None] * np.ones(m.pole_frequency.shape[-1])

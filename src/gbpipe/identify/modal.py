@@ -32,7 +32,7 @@ from gbpipe.identify.harmonic_lines import HarmonicBands, label_poles, record_ha
 from gbpipe.identify.prepare import ConditionedRecord
 from gbpipe.identify.reference import Reference, nonparametric_reference
 from gbpipe.io import longest_segment
-from gbpipe.sysid import Stabilization, lscf_stabilization, stabilization_diagram
+from gbpipe.sysid import Stabilization, stabilization_diagram
 
 __all__ = ["record_modes", "modes_table_rows", "TABLE_COLUMNS", "stabilization_orders"]
 
@@ -53,13 +53,18 @@ def _diagrams(u: np.ndarray, y: np.ndarray, ref: Reference, dt: float,
     # both diagrams of one pairing; a failure is kept as its reason (status), not raised
     st = s["stabilization"]
     crit = {k: st[k] for k in ("frequency_tolerance", "damping_tolerance", "mac_min")}
+    orders = stabilization_orders(st["orders"], st["step"])
+    # the windows of the identify stage, lengthened where the highest order needs more
+    # block rows than they give (future x outputs >= order): a diagram is read off
+    # one projection, so its windows must hold its largest order
+    future = max(int(s["future"]), -(-int(orders[-1]) // y.shape[1]))
+    windows = ({"past": max(int(s["past"]), future), "future": future}
+               if st["method"] == "pbsid" else
+               {"past": max(int(s["past"]), future + 1), "horizon": future + 1})
     out: dict[str, Stabilization | str] = {}
     jobs = {st["method"]: lambda: stabilization_diagram(
-                u, y, dt, stabilization_orders(st["orders"], st["step"]), st["method"],
-                max_damping=s["zeta_max"], past=s["past"], future=s["future"], **crit),
-            "lscf": lambda: lscf_stabilization(
-                ref.frequency, ref.frf, stabilization_orders(st["lscf_orders"], 1), dt,
-                max_damping=s["zeta_max"], **crit)}
+                u, y, dt, orders, st["method"], max_damping=s["zeta_max"], **windows,
+                **crit)}
     for method, job in jobs.items():
         try:
             out[method] = job()
@@ -146,6 +151,7 @@ def _dataset(s: Mapping[str, Any], names: list[str], results: list[dict[str, Any
              refs: list[Reference], bands: HarmonicBands, record: xr.Dataset) -> xr.Dataset:
     methods = list(results[0])
     nm, npair = len(methods), len(names)
+    f_lo, f_hi = float(s["frf"]["f_min"]), float(s["frf"]["f_max"])
     n_cl = max([len(r.clusters) for res in results for r in res.values()
                 if not isinstance(r, str)] + [1])
     n_ord = max(len(stabilization_orders(s["stabilization"][k], st))
@@ -169,18 +175,23 @@ def _dataset(s: Mapping[str, Any], names: list[str], results: list[dict[str, Any
                 continue
             order_of[i, :len(r.orders)] = r.orders
             model_order[i, j] = r.order
-            if not r.clusters:
-                status[i, j] = "no mode: no cluster of stable poles in the diagram"
-            for c, m in enumerate(r.clusters):
+            # the clusters in the FRF band: below it lie the rigid-body and control modes
+            # the record is too short to resolve, above it the anti-aliasing filter's edge
+            keep = [c for c, m in enumerate(r.clusters) if f_lo <= m.frequency_hz <= f_hi]
+            if not keep:
+                status[i, j] = (f"no mode: no cluster of stable poles in {f_lo:g}-{f_hi:g} Hz")
+            for c, m in enumerate(r.clusters[k] for k in keep):
                 cl["f"][i, j, c], cl["z"][i, j, c] = m.frequency_hz, m.damping
                 cl["fs"][i, j, c], cl["zs"][i, j, c] = m.frequency_spread_hz, m.damping_spread
                 cl["n"][i, j, c] = m.n_orders
-            kind[i, j, :len(r.clusters)] = label_poles(
-                [m.frequency_hz for m in r.clusters], bands)
+            kind[i, j, :len(keep)] = label_poles(cl["f"][i, j, :len(keep)], bands)
+            renumber = np.full(len(r.clusters) + 1, -1)  # stab's cluster -> kept; -1 stays
+            renumber[keep] = np.arange(len(keep))
             pf[i, j, :len(r.poles)] = _pad([p[0] for p in r.poles])[:, :n_pole]
             pz[i, j, :len(r.poles)] = _pad([p[1] for p in r.poles])[:, :n_pole]
-            pstable[i, j, :len(r.poles)] = _pad([st for st in r.stable], 0)[:, :n_pole]
-            pcluster[i, j, :len(r.poles)] = _pad([lab for lab in r.labels], -1)[:, :n_pole]
+            pstable[i, j, :len(r.poles)] = _pad(r.stable, 0)[:, :n_pole]
+            pcluster[i, j, :len(r.poles)] = _pad([renumber[lab] for lab in r.labels],
+                                                 -1)[:, :n_pole]
     dims_c, dims_p = ("method", "pairing", "cluster"), ("method", "pairing", "order_index",
                                                         "pole")
     f = refs[0].frequency
@@ -249,7 +260,7 @@ def modes_table_rows(ds: xr.Dataset, record: str) -> list[dict[str, Any]]:
     rows = []
     for pairing in ds.pairing.values:
         for method in ds.method.values:
-            d = ds.sel(pairing=pairing, method=method)
+            d = ds.sel({"pairing": pairing, "method": method})
             for c in np.flatnonzero(np.isfinite(d.mode_frequency.values)):
                 rows.append({"record": record, "pairing": str(pairing),
                              "method": str(method),
