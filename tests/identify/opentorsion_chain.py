@@ -92,9 +92,9 @@ def true_modes(assembly: ot.Assembly) -> tuple[np.ndarray, np.ndarray]:
     return f[order], (-lam.real / np.abs(lam))[order]
 
 
-def _plant(assembly: ot.Assembly) -> tuple[np.ndarray, ...]:
-    # state space from the motor torque (node 0) and the pinion torque (node 2) to the
-    # torque meter (elastic torque of shaft 0-1) and the load speed (node 6)
+def plant(assembly: ot.Assembly) -> tuple[np.ndarray, ...]:
+    """A, B, C, D from the motor torque (node 0) and the pinion torque (node 2) [N m] to
+    the torque meter (elastic torque of shaft 0-1) [N m] and the load speed (node 6) [rad/s]."""
     a, b_all = assembly.state_space()[:2]
     t = assembly.T(assembly.E())  # full node angles = t @ reduced coordinates
     n = t.shape[1]
@@ -118,7 +118,7 @@ def simulate(fs: float, duration: float, seed: int) -> dict[str, np.ndarray]:
     motor = 100.0 * rng.standard_normal(t.size) + ripple
     pinion = sum(a * np.sin(k * theta + p) for (k, a), p in zip(LINES.items(), phases[2:],
                                                                 strict=True))
-    sysd = signal.cont2discrete(_plant(assembly), 1.0 / fs, method="zoh")
+    sysd = signal.cont2discrete(plant(assembly), 1.0 / fs, method="zoh")
     _, y, _ = signal.dlsim(sysd[:4] + (1.0 / fs,), np.column_stack([motor, pinion]), t)
     noise = 0.02 * y.std(axis=0) * rng.standard_normal(y.shape)
     return {"time": t, "motor torque": motor + 0.5 * rng.standard_normal(t.size),

@@ -131,9 +131,8 @@ def record_modes(cfg: Mapping[str, Any], record: xr.Dataset,
     return _dataset(s, [p["name"] for p in s["pairings"]], results, refs, bands, record)
 
 
-def _pad(rows: list[np.ndarray], fill: float = np.nan) -> np.ndarray:
-    # ragged rows -> one array padded with fill
-    width = max([len(r) for r in rows] + [1])
+def _pad(rows: list[np.ndarray], width: int, fill: float = np.nan) -> np.ndarray:
+    # ragged rows (each at most width long) -> one array padded with fill
     out = np.full((len(rows), width), fill)
     for i, r in enumerate(rows):
         out[i, :len(r)] = r
@@ -187,11 +186,11 @@ def _dataset(s: Mapping[str, Any], names: list[str], results: list[dict[str, Any
             kind[i, j, :len(keep)] = label_poles(cl["f"][i, j, :len(keep)], bands)
             renumber = np.full(len(r.clusters) + 1, -1)  # stab's cluster -> kept; -1 stays
             renumber[keep] = np.arange(len(keep))
-            pf[i, j, :len(r.poles)] = _pad([p[0] for p in r.poles])[:, :n_pole]
-            pz[i, j, :len(r.poles)] = _pad([p[1] for p in r.poles])[:, :n_pole]
-            pstable[i, j, :len(r.poles)] = _pad(r.stable, 0)[:, :n_pole]
-            pcluster[i, j, :len(r.poles)] = _pad([renumber[lab] for lab in r.labels],
-                                                 -1)[:, :n_pole]
+            pf[i, j, :len(r.poles)] = _pad([p[0] for p in r.poles], n_pole)
+            pz[i, j, :len(r.poles)] = _pad([p[1] for p in r.poles], n_pole)
+            pstable[i, j, :len(r.poles)] = _pad(r.stable, n_pole, 0)
+            pcluster[i, j, :len(r.poles)] = _pad([renumber[lab] for lab in r.labels], n_pole,
+                                                 -1)
     dims_c, dims_p = ("method", "pairing", "cluster"), ("method", "pairing", "order_index",
                                                         "pole")
     f = refs[0].frequency
