@@ -12,7 +12,7 @@ import pytest
 from gbpipe.errors import ConfigError, DataError
 from gbpipe.sysid import lscf_stabilization
 from gbpipe.sysid.lscf import lscf_poles
-from tests.sysid.torsional_chain import chain, discrete
+from tests.sysid.torsional_chain import assert_true_modes, chain, discrete
 
 
 def _frf(ch, n_lines=2000):
@@ -52,23 +52,7 @@ def test_noisy_frf_clusters_are_the_true_modes_at_the_least_order(seed, inputs):
     level = 0.01 * np.sqrt(np.mean(np.abs(h) ** 2, axis=0))  # 1 % of each element's RMS
     h = h + level * (rng.standard_normal(h.shape) + 1j * rng.standard_normal(h.shape))
     st = lscf_stabilization(f, h, range(2, 31), ch.dt)
-    f_est = np.array([m.frequency_hz for m in st.clusters])
-    z_est = np.array([m.damping for m in st.clusters])
-    # Every cluster is a true mode (nothing else), within 1 % and 20 % ...
-    near = np.argmin(np.abs(f_est[:, None] / ch.frequency_hz[None, :] - 1), axis=1)
-    assert np.unique(near).size == near.size
-    np.testing.assert_array_less(np.abs(f_est / ch.frequency_hz[near] - 1), 0.01)
-    np.testing.assert_array_less(np.abs(z_est / ch.damping[near] - 1), 0.20)
-    # ... and every mode well above the noise (peak > 1/20 of the largest) is found.
-    assert set(np.flatnonzero(ch.peak > 0.05)) <= set(near)
-
-    def holds(k):
-        fk = st.poles[k][0]
-        return fk.size and np.all(np.min(np.abs(fk[None] / ch.frequency_hz[near, None] - 1),
-                                         axis=1) <= 0.01)
-
-    k = list(st.orders).index(st.order)
-    assert holds(k) and not holds(k - 1)
+    assert_true_modes(st, ch)
     assert st.method == "lscf" and st.clusters[0].shape.shape == (len(inputs),)
 
 
