@@ -44,14 +44,17 @@ def test_exact_frf_gives_the_true_poles(seed, inputs):
     assert part.shape == (len(inputs), 12)
 
 
-@pytest.mark.parametrize(("seed", "inputs"), [(1, (0, 5))])
-def test_noisy_frf_clusters_are_the_true_modes_at_the_least_order(seed, inputs):
+# The orders reach about twice the order where the last mode appears (a mode must span
+# half the orders of the best-established one); one input needs more orders than two.
+@pytest.mark.parametrize(("seed", "inputs", "top"), [(1, (0, 5), 40), (6, (0, 5), 60),
+                                                     (8, (0,), 80)])
+def test_noisy_frf_clusters_are_the_true_modes_at_the_least_order(seed, inputs, top):
     ch = chain(seed, inputs=inputs)
     f, h = _frf(ch)
     rng = np.random.default_rng(seed)
     level = 0.01 * np.sqrt(np.mean(np.abs(h) ** 2, axis=0))  # 1 % of each element's RMS
     h = h + level * (rng.standard_normal(h.shape) + 1j * rng.standard_normal(h.shape))
-    st = lscf_stabilization(f, h, range(2, 31), ch.dt)
+    st = lscf_stabilization(f, h, range(2, top + 1, 2), ch.dt)
     assert_true_modes(st, ch)
     assert st.method == "lscf" and st.clusters[0].shape.shape == (len(inputs),)
 
