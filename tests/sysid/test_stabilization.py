@@ -11,16 +11,9 @@ import pytest
 
 from gbpipe.errors import ConfigError
 from gbpipe.sysid import moesp, pbsid, stabilization_diagram
-from tests.sysid.torsional_chain import chain, record
+from tests.sysid.torsional_chain import assert_true_modes, chain, record
 
 ORDERS = range(2, 41, 2)
-
-
-def _holds(poles, f_true, tol=0.01):
-    """Does an order's pole set have a pole within ``tol`` of every true mode?"""
-    f = poles[0]
-    return f.size > 0 and bool(np.all(np.min(np.abs(f[None, :] - f_true[:, None]), axis=1)
-                                      <= tol * f_true))
 
 
 @pytest.mark.parametrize(("seed", "method", "settings"), [
@@ -34,19 +27,7 @@ def test_clusters_are_the_true_modes_and_the_order_is_the_least_that_holds_them(
     ch = chain(seed)
     u, y = record(ch, 20000, noise=0.05, seed=100 + seed)
     st = stabilization_diagram(u, y, ch.dt, ORDERS, method, **settings)
-    f_est = np.array([m.frequency_hz for m in st.clusters])
-    z_est = np.array([m.damping for m in st.clusters])
-    # Every cluster is a true mode (no noise pole is reported), within 1 % and 20 %...
-    near = np.argmin(np.abs(f_est[:, None] / ch.frequency_hz[None, :] - 1), axis=1)
-    assert np.unique(near).size == near.size
-    np.testing.assert_array_less(np.abs(f_est / ch.frequency_hz[near] - 1), 0.01)
-    np.testing.assert_array_less(np.abs(z_est / ch.damping[near] - 1), 0.20)
-    # ... and every mode standing well above the noise (peak > 1/20 of the largest) is one.
-    assert set(np.flatnonzero(ch.peak > 0.05)) <= set(near)
-    # The chosen order holds every found mode; the order before it does not.
-    k = list(st.orders).index(st.order)
-    assert _holds(st.poles[k], ch.frequency_hz[near])
-    assert k == 0 or not _holds(st.poles[k - 1], ch.frequency_hz[near])
+    near = assert_true_modes(st, ch)
     assert st.order >= 2 * near.size  # a pair of states per mode
     for m in st.clusters:
         assert 3 <= m.n_orders <= len(ORDERS)

@@ -5,9 +5,10 @@ order that is large enough to hold it; a pole that fits noise moves from order t
 The field's practice (SSI with stabilization charts: Peeters & De Roeck, MSSP 13, 1999;
 PolyMAX: Peeters, Van der Auweraer, Guillaume & Leuridan, Shock Vib. 11, 2004) is to fit a
 range of orders, flag the poles that stay put between consecutive orders, group the flagged
-poles into clusters (as pyOMA2 and sdypy-EMA do: hierarchical clustering of frequency and
-MAC distances, one pole per order and cluster, a minimum cluster size) and report each
-cluster as a mode. Here the model order is the lowest order whose poles hold every cluster.
+poles into clusters (as pyOMA2 and sdypy-EMA do: hierarchical clustering of the frequency
+distances, one pole per order and cluster, a minimum cluster size relative to the largest)
+and report each cluster as a mode. Here the model order is the lowest order whose poles
+hold every cluster.
 
 :func:`stabilization_diagram` reads every order off one projection and SVD of a subspace
 method (:func:`gbpipe.sysid.method_pbsid.pbsid_orders`,
@@ -198,7 +199,7 @@ def stabilize(orders: np.ndarray, poles: list[PoleSet], method: str, *,
     labels = [np.full(p[0].size, -1) for p in poles]
     modes: list[Mode] = []
     if members:
-        groups = _cluster(poles, members, frequency_tolerance, mac_min)
+        groups = _cluster(poles, members, frequency_tolerance)
         min_orders = max(3, int(np.ceil(min_share * max(len(g) for g in groups))))
         for group in groups:
             mode = _mode(poles, group) if len(group) >= min_orders else None
@@ -210,30 +211,28 @@ def stabilize(orders: np.ndarray, poles: list[PoleSet], method: str, *,
     modes = [modes[j] for j in rank]
     relabel = np.append(np.argsort(rank), -1)  # old index -> new; -1 stays -1
     labels = [relabel[lab] for lab in labels]
+    order = _lowest_order(orders, poles, modes, frequency_tolerance)
     return Stabilization(orders=orders, poles=poles, stable=stable, labels=labels,
-                         clusters=modes, order=_lowest_order(orders, poles, modes, tol),
-                         method=method)
+                         clusters=modes, order=order, method=method)
 
 
-def _cluster(poles: list[PoleSet], members: list[tuple[int, int]], freq_tol: float,
-             mac_min: float) -> list[list[tuple[int, int]]]:
-    """Average-linkage clusters of the stable poles, one pole per order in each.
+def _cluster(poles: list[PoleSet], members: list[tuple[int, int]], freq_tol: float
+             ) -> list[list[tuple[int, int]]]:
+    """Average-linkage clusters of the stable poles by frequency, one pole per order in each.
 
-    The distance of two poles is the larger of their relative frequency difference over
-    ``freq_tol`` and ``1 - MAC`` over ``1 - mac_min``, so 1 is the edge of "the same mode";
-    the tree is cut there. A cluster keeps, per order, the pole nearest its median
-    frequency (a second pole of the same order is another mode or noise).
+    The distance of two poles is their relative frequency difference; the tree is cut at
+    ``freq_tol``. Shapes already entered the stability test, and a second distance on
+    them split one mode into two clusters when an over-fitted order carries a twin of a
+    pole (LSCF at high orders); so a cluster keeps, per order, the pole nearest its
+    median frequency and the twin stays unlabelled. Two modes closer than ``freq_tol``
+    become one (the limit of the criterion, as in sdypy-EMA's frequency-only test).
     """
     f = np.array([poles[k][0][i] for k, i in members])
     if len(members) == 1:
         return [members]
-    d = np.abs(f[:, None] - f[None, :]) / (freq_tol * np.maximum(f[:, None], f[None, :]))
-    width = {poles[k][2].shape[1] for k, _ in members}
-    if max(width) > 1 and mac_min < 1:
-        phi = np.array([poles[k][2][i] for k, i in members])
-        d = np.maximum(d, (1 - mac(phi, phi)) / (1 - mac_min))
+    d = np.abs(f[:, None] - f[None, :]) / np.maximum(f[:, None], f[None, :])
     cond = d[np.triu_indices(len(f), k=1)]
-    label = fcluster(linkage(cond, method="average"), t=1.0, criterion="distance")
+    label = fcluster(linkage(cond, method="average"), t=freq_tol, criterion="distance")
     groups = []
     for c in np.unique(label):
         idx = np.flatnonzero(label == c)
@@ -256,23 +255,19 @@ def _mode(poles: list[PoleSet], group: list[tuple[int, int]]) -> Mode:
 
 
 def _lowest_order(orders: np.ndarray, poles: list[PoleSet], modes: list[Mode],
-                  tol: tuple[float, float, float]) -> int:
-    """Lowest order with a pole within the frequency tolerance (and MAC) of every mode.
+                  freq_tol: float) -> int:
+    """Lowest order with a pole within the frequency tolerance of every mode.
 
-    Damping is not asked for: at the lowest order that holds a mode its damping is often
-    still moving, while its frequency and shape are already there.
+    Damping and shape are not asked for: at the lowest order that holds a mode they are
+    often still moving (LSCF participation vectors most of all), while its frequency is
+    already there.
     """
     if not modes:
         return 0
-    freq_tol, _, mac_min = tol
     fm = np.array([m.frequency_hz for m in modes])
-    for n, (f, _, phi) in zip(orders, poles, strict=True):
-        if f.size == 0:
-            continue
+    for n, (f, _, _) in zip(orders, poles, strict=True):
         near = np.abs(f[None, :] - fm[:, None]) <= freq_tol * fm[:, None]
-        if phi.shape[1] > 1:
-            near &= mac(np.array([m.shape for m in modes]), phi) >= mac_min
-        if near.any(axis=1).all():
+        if f.size and near.any(axis=1).all():
             return int(n)
     return int(orders[-1])
 
