@@ -32,7 +32,7 @@ from gbpipe.identify.harmonic_lines import HarmonicBands, label_poles, record_ha
 from gbpipe.identify.prepare import ConditionedRecord
 from gbpipe.identify.reference import Reference, nonparametric_reference
 from gbpipe.io import longest_segment
-from gbpipe.sysid import Stabilization, stabilization_diagram
+from gbpipe.sysid import Stabilization, lscf_stabilization, stabilization_diagram
 
 __all__ = ["record_modes", "modes_table_rows", "TABLE_COLUMNS", "stabilization_orders"]
 
@@ -64,13 +64,25 @@ def _diagrams(u: np.ndarray, y: np.ndarray, ref: Reference, dt: float,
     out: dict[str, Stabilization | str] = {}
     jobs = {st["method"]: lambda: stabilization_diagram(
                 u, y, dt, orders, st["method"], max_damping=s["zeta_max"], **windows,
-                **crit)}
+                **crit),
+            "lscf": lambda: lscf_stabilization(
+                ref.frequency, ref.frf, stabilization_orders(st["lscf_orders"], 1), dt,
+                weights=_lscf_weights(ref),
+                max_damping=s["zeta_max"], **crit)}
     for method, job in jobs.items():
         try:
             out[method] = job()
         except (ValueError, RuntimeError, np.linalg.LinAlgError) as exc:
             out[method] = f"failed: {type(exc).__name__}: {exc}"
     return out
+
+
+def _lscf_weights(ref: Reference) -> np.ndarray:
+    # each line of each output weighted by the inverse standard deviation of the estimate
+    # (from its 95 % magnitude bounds, averaged over the inputs): the noisy, incoherent
+    # lines count little, and outputs in different units count alike
+    sd = np.nanmean(ref.upper - ref.lower, axis=2) / (2 * 1.96)
+    return np.where(np.isfinite(sd) & (sd > 0), 1.0 / np.where(sd > 0, sd, 1.0), 0.0)
 
 
 def record_modes(cfg: Mapping[str, Any], record: xr.Dataset,
