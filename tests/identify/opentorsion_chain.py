@@ -10,9 +10,10 @@ M, C, K come from ``Assembly.M``, ``Assembly.C``, ``Assembly.K``; the state matr
 zero-order-hold discretisation (:func:`scipy.signal.cont2discrete`), not from gbpipe.
 
 Excitation: a broadband motor torque (seeded white noise, measured) plus angle-locked
-lines of a shaft turning at a speed that sweeps ``SHAFT_HZ`` over the record: shaft
-orders 1-3 (unbalance, misalignment) as a torque on the pinion and as motor-torque
-ripple, and the mesh order ``MESH_ORDER`` (the pinion's teeth) on the pinion. Sensors:
+lines of a shaft turning at a speed that sweeps ``shaft_hz`` over the record (default
+``SHAFT_HZ``): shaft orders 1-3 (unbalance, misalignment) as a torque on the pinion and
+as motor-torque ripple, and a mesh order (the pinion's teeth, default ``MESH_ORDER``) on
+the pinion. Sensors:
 the motor torque, a torque meter on the motor coupling (the shaft's elastic torque) and
 the load speed, each with seeded white noise; the shaft's tachometer is a 0-5 V sine (one
 period per revolution) whose rising mid-level crossings are the pulses.
@@ -43,8 +44,9 @@ SHAFTS = ((0, 1), (1, 2), (3, 4), (4, 5), (5, 6))
 SHAFT_HZ = (10.0, 10.4)
 #: The mesh order of the tacho shaft (the pinion's teeth) [-].
 MESH_ORDER = 23.0
-#: Angle-locked torque amplitudes on the pinion per shaft order [N m].
-LINES = {1.0: 30.0, 2.0: 20.0, 3.0: 15.0, MESH_ORDER: 25.0}
+#: Angle-locked torque amplitudes on the pinion per shaft order [N m], and of the mesh.
+LINES = {1.0: 30.0, 2.0: 20.0, 3.0: 15.0}
+MESH_AMPLITUDE = 25.0
 #: Motor-torque ripple per shaft order [N m] (measured with the motor torque).
 RIPPLE = {1.0: 10.0, 2.0: 6.0}
 
@@ -60,12 +62,18 @@ class ChainTruth(NamedTuple):
         The ``measured:`` entry mapping the files (paths relative to the folder).
     orders : tuple of float
         The excitation orders of the tacho shaft [-].
+    shaft_hz : (float, float)
+        The tacho shaft's frequency at the start and the end of the record [Hz].
+    signals : dict of str -> ndarray
+        The columns written (:func:`simulate`), file channel name -> values [SI].
     """
 
     frequency_hz: np.ndarray
     damping: np.ndarray
     spec: dict
     orders: tuple[float, ...]
+    shaft_hz: tuple[float, float]
+    signals: dict
 
 
 def chain() -> ot.Assembly:
@@ -105,18 +113,20 @@ def plant(assembly: ot.Assembly) -> tuple[np.ndarray, ...]:
     return a, b, c, np.zeros((2, 2))
 
 
-def simulate(fs: float, duration: float, seed: int) -> dict[str, np.ndarray]:
+def simulate(fs: float, duration: float, seed: int, shaft_hz: tuple[float, float] = SHAFT_HZ,
+             mesh_order: float = MESH_ORDER) -> dict[str, np.ndarray]:
     """The chain's signals [SI] on a uniform grid at ``fs`` [Hz] for ``duration`` [s]."""
     rng = np.random.default_rng(seed)
     assembly = chain()
     t = np.arange(int(round(duration * fs))) / fs
-    f_shaft = SHAFT_HZ[0] + (SHAFT_HZ[1] - SHAFT_HZ[0]) * t / t[-1]
+    f_shaft = shaft_hz[0] + (shaft_hz[1] - shaft_hz[0]) * t / t[-1]
+    lines = {**LINES, mesh_order: MESH_AMPLITUDE}
     theta = 2 * np.pi * np.cumsum(f_shaft) / fs  # tacho shaft angle [rad]
-    phases = rng.uniform(0, 2 * np.pi, len(LINES) + len(RIPPLE))
+    phases = rng.uniform(0, 2 * np.pi, len(lines) + len(RIPPLE))
     ripple = sum(a * np.sin(k * theta + p) for (k, a), p in zip(RIPPLE.items(), phases[:2],
                                                                  strict=True))
     motor = 100.0 * rng.standard_normal(t.size) + ripple
-    pinion = sum(a * np.sin(k * theta + p) for (k, a), p in zip(LINES.items(), phases[2:],
+    pinion = sum(a * np.sin(k * theta + p) for (k, a), p in zip(lines.items(), phases[2:],
                                                                 strict=True))
     sysd = signal.cont2discrete(plant(assembly), 1.0 / fs, method="zoh")
     _, y, _ = signal.dlsim(sysd[:4] + (1.0 / fs,), np.column_stack([motor, pinion]), t)
@@ -126,8 +136,9 @@ def simulate(fs: float, duration: float, seed: int) -> dict[str, np.ndarray]:
             "tacho": 2.5 + 2.5 * np.sin(theta + 0.3)}
 
 
-def write_bench(folder: Path, *, fs: float = 2000.0, duration: float = 60.0,
-                seed: int = 3) -> ChainTruth:
+def write_bench(folder: Path, *, fs: float = 2000.0, duration: float = 60.0, seed: int = 3,
+                shaft_hz: tuple[float, float] = SHAFT_HZ, mesh_order: float = MESH_ORDER
+                ) -> ChainTruth:
     """Write the chain's record as a CSV bench file in ``folder``; return the truth.
 
     Parameters
@@ -140,10 +151,12 @@ def write_bench(folder: Path, *, fs: float = 2000.0, duration: float = 60.0,
         Record length [s].
     seed : int
         Seed of the excitation, the line phases and the sensor noise.
+    shaft_hz, mesh_order
+        Speed sweep of the tacho shaft [Hz] and the mesh order [-] (:func:`simulate`).
     """
     folder.mkdir(parents=True, exist_ok=True)
-    pd.DataFrame(simulate(fs, duration, seed)).to_csv(folder / "chain.csv", index=False,
-                                                      float_format="%.12g")
+    signals = simulate(fs, duration, seed, shaft_hz, mesh_order)
+    pd.DataFrame(signals).to_csv(folder / "chain.csv", index=False, float_format="%.12g")
     f, z = true_modes(chain())
     spec = {"files": {"daq": {"path": "chain.csv", "time": "time"}},
             "sample_rate": fs,
@@ -155,5 +168,5 @@ def write_bench(folder: Path, *, fs: float = 2000.0, duration: float = 60.0,
                                        "unit": "rad/s"},
                         "tacho": {"file": "daq", "channel": "tacho", "quantity": "tacho",
                                   "pulses_per_rev": 1}},
-            "orders": [MESH_ORDER]}
-    return ChainTruth(f, z, spec, tuple(sorted(LINES)))
+            "orders": [mesh_order]}
+    return ChainTruth(f, z, spec, (*sorted(LINES), mesh_order), tuple(shaft_hz), signals)
