@@ -41,9 +41,9 @@ class Mode:
     Attributes
     ----------
     frequency_hz : float
-        Mean undamped natural frequency of the cluster [Hz].
+        Median undamped natural frequency of the cluster [Hz].
     damping : float
-        Mean damping ratio [1].
+        Median damping ratio [1].
     frequency_spread_hz : float
         Standard deviation of the frequency over the cluster [Hz].
     damping_spread : float
@@ -51,7 +51,7 @@ class Mode:
     n_orders : int
         Number of model orders the mode appears in (stable) [1].
     shape : ndarray, complex
-        Mode shape of the member nearest the mean frequency, largest component 1 (output
+        Mode shape of the member nearest the median frequency, largest component 1 (output
         units for a subspace diagram; participation vector over the inputs for LSCF).
     """
 
@@ -253,11 +253,16 @@ def _cluster(poles: list[PoleSet], members: list[tuple[int, int]], freq_tol: flo
 
 
 def _mode(poles: list[PoleSet], group: list[tuple[int, int]]) -> Mode:
-    """Mean, spread and representative shape of one cluster."""
+    """Median, spread and representative shape of one cluster.
+
+    The median, not the mean: the stability test bounds the change between consecutive
+    orders only, so a few members of a cluster can carry a damping far from the rest
+    (twice the median on a mode near the noise floor).
+    """
     f = np.array([poles[k][0][i] for k, i in group])
     z = np.array([poles[k][1][i] for k, i in group])
-    k0, i0 = group[int(np.argmin(np.abs(f - f.mean())))]
-    return Mode(frequency_hz=float(f.mean()), damping=float(z.mean()),
+    k0, i0 = group[int(np.argmin(np.abs(f - np.median(f))))]
+    return Mode(frequency_hz=float(np.median(f)), damping=float(np.median(z)),
                 frequency_spread_hz=float(f.std()), damping_spread=float(z.std()),
                 n_orders=len(group), shape=poles[k0][2][i0].copy())
 
