@@ -91,17 +91,18 @@ def record(ch: Chain, n_samples: int, noise: float, seed: int
 def assert_true_modes(st, ch: Chain) -> np.ndarray:
     """Check a ``Stabilization`` against the chain's true modes; return the matched modes.
 
-    Every cluster is a distinct true mode (no noise pole reported) within 1 % in frequency
-    and 20 % in damping; every mode well above the noise (peak > 1/20 of the largest) is
-    found; the chosen order has a pole within 1 % of every found mode, the order before it
-    has not.
+    Every cluster is a distinct true mode (no noise pole reported) within 1 % in frequency;
+    every mode well above the noise (peak > 1/20 of the largest) is found, its damping
+    within 20 % (a mode near the noise floor may be found, its damping less sure); the
+    chosen order has a pole within 1 % of every found mode, the order before it has not.
     """
     f_est = np.array([m.frequency_hz for m in st.clusters])
     z_est = np.array([m.damping for m in st.clusters])
     near = np.argmin(np.abs(f_est[:, None] / ch.frequency_hz[None, :] - 1), axis=1)
     assert np.unique(near).size == near.size
     np.testing.assert_array_less(np.abs(f_est / ch.frequency_hz[near] - 1), 0.01)
-    np.testing.assert_array_less(np.abs(z_est / ch.damping[near] - 1), 0.20)
+    strong = ch.peak[near] > 0.05
+    np.testing.assert_array_less(np.abs(z_est / ch.damping[near] - 1)[strong], 0.20)
     assert set(np.flatnonzero(ch.peak > 0.05)) <= set(near)
 
     def holds(k: int) -> bool:

@@ -41,9 +41,9 @@ class Mode:
     Attributes
     ----------
     frequency_hz : float
-        Mean undamped natural frequency of the cluster [Hz].
+        Median undamped natural frequency of the cluster [Hz].
     damping : float
-        Mean damping ratio [1].
+        Median damping ratio [1].
     frequency_spread_hz : float
         Standard deviation of the frequency over the cluster [Hz].
     damping_spread : float
@@ -51,7 +51,7 @@ class Mode:
     n_orders : int
         Number of model orders the mode appears in (stable) [1].
     shape : ndarray, complex
-        Mode shape of the member nearest the mean frequency, largest component 1 (output
+        Mode shape of the member nearest the median frequency, largest component 1 (output
         units for a subspace diagram; participation vector over the inputs for LSCF).
     """
 
@@ -81,6 +81,10 @@ class Stabilization:
         Per order, the index in ``clusters`` of each pole, -1 for none.
     clusters : list of Mode
         The modes, ascending in frequency.
+    candidates : list of Mode
+        Clusters of 3 orders or more too small to be modes (``min_share``), ascending in
+        frequency: noise that stayed put a while, or modes that the largest orders fitted
+        only begin to hold (then extend the orders).
     order : int
         Lowest order whose poles hold every cluster; 0 when no mode was found.
     method : str
@@ -91,6 +95,7 @@ class Stabilization:
     stable: list[np.ndarray]
     labels: list[np.ndarray]
     clusters: list[Mode]
+    candidates: list[Mode]
     order: int
     method: str
 
@@ -198,22 +203,25 @@ def stabilize(orders: np.ndarray, poles: list[PoleSet], method: str, *,
     members = [(k, i) for k in range(len(orders)) for i in np.flatnonzero(stable[k])]
     labels = [np.full(p[0].size, -1) for p in poles]
     modes: list[Mode] = []
+    candidates: list[Mode] = []
     if members:
         groups = _cluster(poles, members, frequency_tolerance)
         min_orders = max(3, int(np.ceil(min_share * max(len(g) for g in groups))))
         for group in groups:
-            mode = _mode(poles, group) if len(group) >= min_orders else None
-            if mode is not None:
+            if len(group) >= min_orders:
                 for k, i in group:
                     labels[k][i] = len(modes)
-                modes.append(mode)
+                modes.append(_mode(poles, group))
+            elif len(group) >= 3:
+                candidates.append(_mode(poles, group))
     rank = np.argsort([m.frequency_hz for m in modes])
     modes = [modes[j] for j in rank]
     relabel = np.append(np.argsort(rank), -1)  # old index -> new; -1 stays -1
     labels = [relabel[lab] for lab in labels]
     order = _lowest_order(orders, poles, modes, frequency_tolerance)
+    candidates.sort(key=lambda m: m.frequency_hz)
     return Stabilization(orders=orders, poles=poles, stable=stable, labels=labels,
-                         clusters=modes, order=order, method=method)
+                         clusters=modes, candidates=candidates, order=order, method=method)
 
 
 def _cluster(poles: list[PoleSet], members: list[tuple[int, int]], freq_tol: float
@@ -245,11 +253,16 @@ def _cluster(poles: list[PoleSet], members: list[tuple[int, int]], freq_tol: flo
 
 
 def _mode(poles: list[PoleSet], group: list[tuple[int, int]]) -> Mode:
-    """Mean, spread and representative shape of one cluster."""
+    """Median, spread and representative shape of one cluster.
+
+    The median, not the mean: the stability test bounds the change between consecutive
+    orders only, so a few members of a cluster can carry a damping far from the rest
+    (twice the median on a mode near the noise floor).
+    """
     f = np.array([poles[k][0][i] for k, i in group])
     z = np.array([poles[k][1][i] for k, i in group])
-    k0, i0 = group[int(np.argmin(np.abs(f - f.mean())))]
-    return Mode(frequency_hz=float(f.mean()), damping=float(z.mean()),
+    k0, i0 = group[int(np.argmin(np.abs(f - np.median(f))))]
+    return Mode(frequency_hz=float(np.median(f)), damping=float(np.median(z)),
                 frequency_spread_hz=float(f.std()), damping_spread=float(z.std()),
                 n_orders=len(group), shape=poles[k0][2][i0].copy())
 
