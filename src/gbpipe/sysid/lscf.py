@@ -105,8 +105,12 @@ def lscf_poles(frequency_hz: object, frf: object, orders: object, sample_time: f
         comp[:-n_in, n_in:] = np.eye(nm - n_in)
         # Last block row [-alpha_0, ..., -alpha_(n-1)]: z^n v = -sum_j alpha_j z^j v.
         comp[-n_in:] = -alpha.reshape(n, n_in, n_in).transpose(1, 0, 2).reshape(n_in, nm)
-        z, v = np.linalg.eig(comp)
-        out.append((z, v[:n_in]))
+        if n_in == 1:  # one input: every participation vector is the scalar 1
+            z = np.linalg.eigvals(comp)
+            out.append((z, np.ones((1, z.size), dtype=complex)))
+        else:
+            z, v = np.linalg.eig(comp)
+            out.append((z, v[:n_in]))
     return out
 
 
