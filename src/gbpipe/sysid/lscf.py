@@ -11,10 +11,10 @@ new standard for modal parameter estimation?", Shock and Vibration 11, 2004).
 The linearised equations ``B_o(z_k) - H_o(z_k) A(z_k) = 0`` are solved in least squares
 with ``alpha_n = I`` after eliminating the numerators, the reduction PolyMAX writes with
 the normal matrices ``M = 2 sum_o (T_o - S_o' R_o^(-1) S_o)``; here it is done on the
-triangular factors of the equations (the same solution without squaring their condition
-number). The factors are built once at the highest order and every lower order is their
-leading block (the basis is nested), so a stabilization diagram costs one pass over the
-data. The poles are the eigenvalues of the block companion matrix
+triangular factor of each output's equations (the same solution without squaring their
+condition number). The factors are built once at the highest order and, the basis being
+nested, every lower order reads its reduced equations off them, so a stabilization diagram
+costs one pass over the data. The poles are the eigenvalues of the block companion matrix
 of ``A``; its eigenvectors' first block is the modal participation vector (one entry per
 input), the shape the stabilization test compares (:mod:`.stabilization`).
 """
@@ -77,27 +77,25 @@ def lscf_poles(frequency_hz: object, frf: object, orders: object, sample_time: f
                           f"lines with {n_in} input(s); the FRF has {n_freq}: lower the "
                           "orders or pass a finer FRF")
     x = np.exp(1j * 2 * np.pi * f[:, None] * dt * np.arange(n_max + 1))  # (F, n + 1)
-    # Square-root form: the R factor of each output's real-stacked equations, columns
-    # interleaved per power j as [beta_j, alpha_j (m)], so the factor of order n is the
-    # leading block of that of n_max (nested basis) and the normal equations, which square
-    # the condition number (1e14 for 12 poles near z = 1), are never formed.
-    width = n_in + 1
+    # Square-root form: the R factor of each output's real-stacked equations, numerator
+    # columns (one per power j) first, then the denominator columns (j, input). The
+    # normal equations, which square the condition number (1e14 for 12 poles near z = 1),
+    # are never formed.
+    p1 = n_max + 1
     factors = []
     for o in range(n_out):
         xw = x * w[:, o, None]
-        cols = np.concatenate([xw[:, :, None], -xw[:, :, None] * h[:, o, None, :]], axis=2)
-        cols = cols.reshape(n_freq, -1)
+        y = -(xw[:, :, None] * h[:, o, None, :]).reshape(n_freq, -1)  # column (j, input)
+        cols = np.hstack([xw, y])
         factors.append(np.linalg.qr(np.vstack([cols.real, cols.imag]), mode="r"))
     out = []
     for n in orders:
-        k = (n + 1) * width
-        is_beta = np.arange(k) % width == 0
-        # Eliminate each output's numerator: QR of [beta | alpha] columns, keep the alpha rows.
-        rows = []
-        for r in factors:
-            rr = np.linalg.qr(np.hstack([r[:k, :k][:, is_beta], r[:k, :k][:, ~is_beta]]),
-                              mode="r")
-            rows.append(rr[n + 1:, n + 1:])
+        c = (n + 1) * n_in
+        # Order n's numerator spans the first n + 1 orthonormal directions of the nested
+        # basis; what of its denominator columns lies outside them is, in that orthonormal
+        # frame, the rows n + 1.. of the coupling block and the rows of the lower block.
+        rows = [np.vstack([r[n + 1: p1, p1: p1 + c], r[p1: p1 + c, p1: p1 + c]])
+                for r in factors]
         ra = np.vstack(rows)  # alpha columns (j, input), j = 0..n
         nm = n * n_in
         alpha = np.linalg.lstsq(ra[:, :nm], -ra[:, nm:], rcond=None)[0]  # alpha_0..n-1
@@ -105,8 +103,12 @@ def lscf_poles(frequency_hz: object, frf: object, orders: object, sample_time: f
         comp[:-n_in, n_in:] = np.eye(nm - n_in)
         # Last block row [-alpha_0, ..., -alpha_(n-1)]: z^n v = -sum_j alpha_j z^j v.
         comp[-n_in:] = -alpha.reshape(n, n_in, n_in).transpose(1, 0, 2).reshape(n_in, nm)
-        z, v = np.linalg.eig(comp)
-        out.append((z, v[:n_in]))
+        if n_in == 1:  # one input: every participation vector is the scalar 1
+            z = np.linalg.eigvals(comp)
+            out.append((z, np.ones((1, z.size), dtype=complex)))
+        else:
+            z, v = np.linalg.eig(comp)
+            out.append((z, v[:n_in]))
     return out
 
 

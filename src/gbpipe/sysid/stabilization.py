@@ -22,6 +22,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from scipy.cluster.hierarchy import fcluster, linkage
+from scipy.spatial.distance import pdist
 
 from gbpipe.errors import ConfigError
 from gbpipe.sysid.checks import channel_counts, check_dt
@@ -228,19 +229,19 @@ def _cluster(poles: list[PoleSet], members: list[tuple[int, int]], freq_tol: flo
              ) -> list[list[tuple[int, int]]]:
     """Average-linkage clusters of the stable poles by frequency, one pole per order in each.
 
-    The distance of two poles is their relative frequency difference; the tree is cut at
-    ``freq_tol``. Shapes already entered the stability test, and a second distance on
-    them split one mode into two clusters when an over-fitted order carries a twin of a
-    pole (LSCF at high orders); so a cluster keeps, per order, the pole nearest its
-    median frequency and the twin stays unlabelled. Two modes closer than ``freq_tol``
-    become one (the limit of the criterion, as in sdypy-EMA's frequency-only test).
+    The distance of two poles is their log-frequency difference (the relative difference,
+    symmetric); the tree is cut at ``log(1 + freq_tol)``. Shapes already entered the
+    stability test, and a second distance on them split one mode into two clusters when
+    an over-fitted order carries a twin of a pole (LSCF at high orders); so a cluster
+    keeps, per order, the pole nearest its median frequency and the twin stays
+    unlabelled. Two modes closer than ``freq_tol`` become one (the limit of the
+    criterion, as in sdypy-EMA's frequency-only test).
     """
     f = np.array([poles[k][0][i] for k, i in members])
     if len(members) == 1:
         return [members]
-    d = np.abs(f[:, None] - f[None, :]) / np.maximum(f[:, None], f[None, :])
-    cond = d[np.triu_indices(len(f), k=1)]
-    label = fcluster(linkage(cond, method="average"), t=freq_tol, criterion="distance")
+    tree = linkage(pdist(np.log(f)[:, None], "cityblock"), method="average")
+    label = fcluster(tree, t=np.log1p(freq_tol), criterion="distance")
     groups = []
     for c in np.unique(label):
         idx = np.flatnonzero(label == c)
