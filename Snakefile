@@ -73,6 +73,7 @@ else:
     include: "workflow/rules/identify.smk"
     include: "workflow/rules/removal.smk"
     include: "workflow/rules/measured.smk"
+    include: "workflow/rules/modes.smk"
     include: "workflow/rules/fit.smk"
 
     rule all:

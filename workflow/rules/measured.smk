@@ -31,7 +31,8 @@ def measured_targets():
     targets.append(f"{RESULTS}/tables/identification_measured.csv")
     for r in MEASURED:
         targets += figure(f"measured_{r}")
-    return targets
+    # the modes the data choose, table and stabilization figures (modes.smk)
+    return targets + modes_targets()
 
 
 wildcard_constraints:

@@ -21,6 +21,9 @@ condition, decimate, version_signals, ConditionedRecord
     Records -> identification data (each signal of each data version conditioned once).
 frf_error_db, match_bandwidth, identified_modes, match_modes
     Identified vs reference model.
+record_modes, modes_table_rows
+    Stabilization diagrams, modes and model order of a bench record (docs/modal.md);
+    ``harmonic_bands``, ``label_poles``: which poles sit on a shaft-order line.
 Reference, truth_reference, nonparametric_reference, within_reference
     What an identified FRF is scored against: the true model (simulated records) or the
     nonparametric FRF of the data with its 95 % bounds (measured records).
@@ -29,12 +32,20 @@ Reference, truth_reference, nonparametric_reference, within_reference
 from gbpipe.identify.dataset import MODE_TOLERANCE, model_matrices, models_dataset
 from gbpipe.identify.design import SOURCES, error_bound_db, predict, predict_test
 from gbpipe.identify.fitting import METHODS, fit_model, reflect_out_of_band, validation_fit
+from gbpipe.identify.harmonic_lines import (
+    HarmonicBands,
+    harmonic_bands,
+    label_poles,
+    record_harmonic_bands,
+    shaft_frequency_range,
+)
 from gbpipe.identify.metrics import (
     frf_error_db,
     identified_modes,
     match_bandwidth,
     match_modes,
 )
+from gbpipe.identify.modal import TABLE_COLUMNS, modes_table_rows, record_modes
 from gbpipe.identify.prepare import (
     VALIDATION_PARTNER,
     VERSIONS,
@@ -67,4 +78,6 @@ __all__ = ["identify_methods", "identify_record", "holdout_split", "record_label
            "version_signals",
            "frf_error_db", "match_bandwidth", "identified_modes", "match_modes", "METHODS",
            "VERSIONS", "VALIDATION_PARTNER", "SHORT", "MODE_TOLERANCE",
-           "SOURCES", "error_bound_db", "predict", "predict_test"]
+           "SOURCES", "error_bound_db", "predict", "predict_test",
+           "record_modes", "modes_table_rows", "TABLE_COLUMNS", "HarmonicBands",
+           "harmonic_bands", "label_poles", "record_harmonic_bands", "shaft_frequency_range"]

@@ -9,6 +9,7 @@ silently ignored. The format is described in ``docs/measured.md``.
 from __future__ import annotations
 
 import difflib
+import math
 from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
@@ -19,7 +20,7 @@ __all__ = ["FileSpec", "SignalSpec", "RecordSpec", "parse", "GAP_POLICIES", "CHE
            "LEVELS", "default_checks"]
 
 GAP_POLICIES = ("refuse", "split")
-_RECORD_KEYS = ("files", "sample_rate", "signals", "gaps")
+_RECORD_KEYS = ("files", "sample_rate", "signals", "gaps", "orders")
 _FILE_KEYS = ("path", "format", "time", "sample_rate", "delimiter", "decimal", "header",
               "time_unit", "interleaved")
 _SIGNAL_KEYS = ("file", "channel", "unit", "scale", "offset", "quantity", "pulses_per_rev",
@@ -95,6 +96,8 @@ class RecordSpec:
     sample_rate: float
     gaps: str = "refuse"
     interpolate_upto: int = 0
+    #: excitation orders of the tacho shaft (docs/modal.md): their lines are not modes
+    orders: tuple[float, ...] = ()
 
 
 def _unknown(field: str, key: str, valid: tuple[str, ...]) -> ConfigError:
@@ -215,7 +218,8 @@ def parse(spec: Mapping[str, Any], name: str = "record") -> RecordSpec:
     Parameters
     ----------
     spec : mapping
-        The entry: ``files``, ``sample_rate``, ``signals``, optional ``gaps``.
+        The entry: ``files``, ``sample_rate``, ``signals``, optional ``gaps`` and
+        ``orders``.
     name : str
         Record name, used in the key paths of error messages (``measured.<name>...``).
 
@@ -249,6 +253,13 @@ def parse(spec: Mapping[str, Any], name: str = "record") -> RecordSpec:
     elif gaps not in GAP_POLICIES:
         raise ConfigError(f"{root}.gaps", f"must be refuse, split or "
                           f"{{interpolate_upto: N}}; got {gaps!r}")
+    orders = m.get("orders", [])
+    if not isinstance(orders, list) or not all(
+            isinstance(k, int | float) and not isinstance(k, bool) and 0 < k < math.inf
+            for k in orders):
+        raise ConfigError(f"{root}.orders", f"must be a list of positive shaft orders of "
+                          f"the tacho shaft [-] (e.g. [23, 46]); got {orders!r}")
     return RecordSpec(name=name, files=files, signals=signals,
                       sample_rate=_positive(m["sample_rate"], f"{root}.sample_rate"),
-                      gaps=gaps, interpolate_upto=upto)
+                      gaps=gaps, interpolate_upto=upto,
+                      orders=tuple(float(k) for k in orders))

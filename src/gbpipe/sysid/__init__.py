@@ -20,7 +20,10 @@ Modules, one concept each (``docs/architecture.md``, "Package map"):
 * :mod:`.order`: order from the singular values;
 * :mod:`.kalman`: steady-state Kalman gain of the innovation form;
 * :mod:`.bd_regressors`: the simulated regressors of the ``B, D`` least squares;
-* :mod:`.uncertainty`: jackknife confidence bounds of an identified FRF (:func:`frf_bounds`).
+* :mod:`.uncertainty`: jackknife confidence bounds of an identified FRF (:func:`frf_bounds`);
+* :mod:`.stabilization`: stabilization diagram over many orders, modes without a model
+  order (:func:`stabilization_diagram`); :mod:`.lscf`: the same from an FRF by
+  poly-reference LSCF (:func:`lscf_stabilization`).
 
 Every method accepts several records (experiments) as lists, ``u = [u_0, u_1]``,
 ``y = [y_0, y_1]``: each record keeps its own initial state and no data window straddles
@@ -31,6 +34,7 @@ two records.
 """
 
 from gbpipe.sysid.excitation import InputRank, input_hankel_rank
+from gbpipe.sysid.lscf import lscf_stabilization
 from gbpipe.sysid.method_moesp import moesp
 from gbpipe.sysid.method_n4sid import n4sid
 from gbpipe.sysid.method_pbsid import pbsid
@@ -41,9 +45,11 @@ from gbpipe.sysid.nonparametric import (
     equivalent_averages,
     welch_frf,
 )
+from gbpipe.sysid.stabilization import Mode, Stabilization, stabilization_diagram
 from gbpipe.sysid.subspace_model import SubspaceModel
 from gbpipe.sysid.uncertainty import FRFBounds, frf_bounds
 
 __all__ = ["pbsid", "moesp", "n4sid", "SubspaceModel", "InputRank", "input_hankel_rank",
            "welch_frf", "NonparametricFRF", "coherent_band", "CoherentBand",
-           "equivalent_averages", "frf_bounds", "FRFBounds"]
+           "equivalent_averages", "frf_bounds", "FRFBounds", "stabilization_diagram",
+           "Stabilization", "Mode", "lscf_stabilization"]

@@ -14,19 +14,19 @@ projections assume future inputs uncorrelated with the noise.
 
 from __future__ import annotations
 
-from dataclasses import replace
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from gbpipe.errors import ConfigError
 from gbpipe.sysid import checks
-from gbpipe.sysid.excitation import excitation_limit
+from gbpipe.sysid.excitation import InputRank, excitation_limit
 from gbpipe.sysid.hankel import hankel_gram, lstsq_r, window_r_factor
 from gbpipe.sysid.kalman import stable_predictor_gain
 from gbpipe.sysid.order import check_order_rank, select_order
 from gbpipe.sysid.subspace_model import SubspaceModel, from_scaled
 
-__all__ = ["pbsid", "pbsid_leave_one_out"]
+__all__ = ["pbsid", "pbsid_leave_one_out", "pbsid_orders"]
 
 
 def pbsid(
@@ -169,6 +169,132 @@ def _from_products(data: checks.PreparedData, gram: np.ndarray, p: int, f: int, 
                    n_fixed: int | None, feedthrough: bool, regularization: float,
                    max_order: int | None, factor: str = "auto") -> SubspaceModel:
     """Steps (1)-(4) of :func:`pbsid` from the prepared record and its window Gram matrix."""
+    proj = _projection(data, gram, p, f, n_fixed, feedthrough, regularization, factor)
+    s = proj.singular_values
+    if n_fixed is None:
+        top = f * data.n_outputs
+        n = select_order(s, min(max_order or top, top,
+                                top if proj.order_cap is None else proj.order_cap))
+    else:
+        n = n_fixed
+    check_order_rank(s, n)
+    amat, bmat, cmat, dmat, kmat, noise_cov, w, re = proj.matrices(n)
+    kmat = stable_predictor_gain(amat, cmat, kmat, w.T @ w, noise_cov, w.T @ re)
+
+    return from_scaled(
+        amat, bmat, cmat, dmat, kmat, noise_cov, data.u_scale, data.y_scale,
+        singular_values=s, dt=dt, method="pbsid", order=n, past=p, future=f,
+        info={"n_windows": proj.n_windows, "feedthrough": feedthrough,
+              "regularization": regularization, "input_hankel_rank": proj.input_rank.total,
+              "input_hankel_depth": proj.input_rank.depth},
+    )
+
+
+def pbsid_orders(
+    u: object, y: object, orders: np.ndarray, past: int, future: int | None = None,
+    dt: float = 1.0, *, feedthrough: bool = False, regularization: float = 0.0,
+    factor: str = "auto",
+) -> list[tuple[np.ndarray, np.ndarray]]:
+    """``A`` and ``C`` of PBSID at every order of ``orders`` from one projection and SVD.
+
+    The VARX regression and the SVD of ``Gamma_f K_p`` (steps 1-3 of :func:`pbsid`) do not
+    depend on the order; only the state basis (the leading ``n`` singular vectors) and the
+    least squares of step 4 do. So every order is read off one projection, as SSI reads a
+    stabilization diagram off one SVD, and order ``n`` gives the ``A, C`` of
+    ``pbsid(u, y, n, past, future, dt, ...)`` exactly.
+
+    Parameters
+    ----------
+    u, y, past, future, dt, feedthrough, regularization, factor
+        As for :func:`pbsid`.
+    orders : array of int
+        State dimensions, each in ``1 .. future * outputs``; the input must be persistently
+        exciting for the largest.
+
+    Returns
+    -------
+    list of (A, C)
+        One pair per order: ``A`` (n, n), ``C`` (outputs, n) in the outputs' units.
+
+    Raises
+    ------
+    DataError, ConfigError, ExcitationError
+        As :func:`pbsid` for the largest order; ``ConfigError`` also for an order at
+        round-off level of the singular values (the data carry fewer states).
+    """
+    orders = np.asarray(orders, dtype=int)
+    data, p, f, dt, n_max = _prepared(u, y, int(orders.max()), past, future, dt,
+                                      regularization)
+    proj = _projection(data, hankel_gram(data.z, p + 1), p, f, n_max, feedthrough,
+                       regularization, factor)
+    out = []
+    for n in orders:
+        check_order_rank(proj.singular_values, int(n))
+        amat, _, cmat, *_ = proj.matrices(int(n))
+        out.append((amat, data.y_scale[:, None] * cmat))
+    return out
+
+
+@dataclass(frozen=True)
+class _Projection:
+    """Steps (1)-(3) of :func:`pbsid`, which do not depend on the order.
+
+    ``r`` is the triangular factor of the data windows, ``gk`` the product
+    ``Gamma_f K_p`` and ``uu``, ``singular_values`` its SVD weighted by the past data;
+    ``matrices(n)`` is step (4) for order ``n``.
+    """
+
+    r: np.ndarray
+    gk: np.ndarray
+    uu: np.ndarray
+    singular_values: np.ndarray
+    n_inputs: int
+    n_outputs: int
+    past: int
+    feedthrough: bool
+    input_rank: InputRank
+    order_cap: int | None
+    n_windows: int
+
+    def matrices(self, n: int) -> tuple[np.ndarray, ...]:
+        """Step (4) at order ``n``: ``A, B, C, D, K`` (least-squares ``K``, channel-scaled)
+        and the residual factors (noise covariance, ``r``-weighted state and output
+        residuals) that the Kalman-gain fallback needs."""
+        m, l_, p, r = self.n_inputs, self.n_outputs, self.past, self.r
+        c = m + l_
+        pc = p * c
+        t_x = (self.uu[:, :n] / np.sqrt(self.singular_values[:n])).T @ self.gk  # (n, pc)
+
+        # Every signal below is a linear combination of window columns (coefficient
+        # matrices): x[t] = t_x @ z_p[t], x[t+1] uses lag indices 1..p.
+        width = (p + 1) * c
+        cx = np.zeros((width, n))
+        cx[:pc] = t_x.T
+        cx_next = np.zeros((width, n))
+        cx_next[c:] = t_x.T
+        cu = np.zeros((width, m))
+        cu[pc + np.arange(m), np.arange(m)] = 1.0
+        cy = np.zeros((width, l_))
+        cy[pc + m + np.arange(l_), np.arange(l_)] = 1.0
+
+        # (4a) C, D from y = C x + D u + e.
+        reg_cd = np.hstack([cx, cu]) if self.feedthrough else cx
+        sol = lstsq_r(r @ reg_cd, r @ cy)
+        cmat = sol[:n].T
+        dmat = sol[n:].T if self.feedthrough else np.zeros((l_, m))
+        ce = cy - cx @ cmat.T - cu @ dmat.T
+        # (4b) A, B, K from x+ = A x + B u + K e.
+        sol = lstsq_r(r @ np.hstack([cx, cu, ce]), r @ cx_next)
+        amat, bmat, kmat = sol[:n].T, sol[n: n + m].T, sol[n + m:].T
+        re = r @ ce
+        w = r @ (cx_next - cx @ amat.T - cu @ bmat.T)
+        return amat, bmat, cmat, dmat, kmat, re.T @ re, w, re
+
+
+def _projection(data: checks.PreparedData, gram: np.ndarray, p: int, f: int,
+                n_fixed: int | None, feedthrough: bool, regularization: float,
+                factor: str) -> _Projection:
+    """Steps (1)-(3) of :func:`pbsid`: VARX, ``Gamma_f K_p`` and its weighted SVD."""
     m, l_ = data.n_inputs, data.n_outputs
     c = m + l_
     pc = p * c
@@ -197,44 +323,6 @@ def _from_products(data: checks.PreparedData, gram: np.ndarray, p: int, f: int, 
 
     # (3) SVD of Gamma_f K_p Z_p through the factor: Z_p' = Q R[:, :pc].
     uu, s, _ = np.linalg.svd(gk @ r[:pc, :pc].T, full_matrices=False)
-    if n_fixed is None:
-        top = f * l_
-        n = select_order(s, min(max_order or top, top, top if pe_cap is None else pe_cap))
-    else:
-        n = n_fixed
-    check_order_rank(s, n)
-    t_x = (uu[:, :n] / np.sqrt(s[:n])).T @ gk  # (n, pc): x[t] = t_x @ z_p[t]
-
-    # Every signal below is a linear combination of window columns (coefficient matrices).
-    width = cols.shape[0]
-    cx = np.zeros((width, n))
-    cx[:pc] = t_x.T
-    cx_next = np.zeros((width, n))
-    cx_next[c:] = t_x.T  # x[t+1] = t_x @ [z[t-p+1] .. z[t]]: lag indices 1..p
-    cu = np.zeros((width, m))
-    cu[pc + np.arange(m), np.arange(m)] = 1.0
-    cy = np.zeros((width, l_))
-    cy[i_y, np.arange(l_)] = 1.0
-
-    # (4a) C, D from y = C x + D u + e.
-    reg_cd = np.hstack([cx, cu]) if feedthrough else cx
-    sol = lstsq_r(r @ reg_cd, r @ cy)
-    cmat = sol[:n].T
-    dmat = sol[n:].T if feedthrough else np.zeros((l_, m))
-    ce = cy - cx @ cmat.T - cu @ dmat.T
-    # (4b) A, B, K from x+ = A x + B u + K e.
-    sol = lstsq_r(r @ np.hstack([cx, cu, ce]), r @ cx_next)
-    amat, bmat, kmat = sol[:n].T, sol[n: n + m].T, sol[n + m:].T
-
-    re = r @ ce
-    noise_cov = re.T @ re
-    w = r @ (cx_next - cx @ amat.T - cu @ bmat.T)
-    kmat = stable_predictor_gain(amat, cmat, kmat, w.T @ w, noise_cov, w.T @ re)
-
-    return from_scaled(
-        amat, bmat, cmat, dmat, kmat, noise_cov, data.u_scale, data.y_scale,
-        singular_values=s, dt=dt, method="pbsid", order=n, past=p, future=f,
-        info={"n_windows": n_win, "feedthrough": feedthrough,
-              "regularization": regularization, "input_hankel_rank": pe_rank.total,
-              "input_hankel_depth": pe_rank.depth},
-    )
+    return _Projection(r=r, gk=gk, uu=uu, singular_values=s, n_inputs=m, n_outputs=l_,
+                       past=p, feedthrough=feedthrough, input_rank=pe_rank,
+                       order_cap=pe_cap, n_windows=n_win)

@@ -1,0 +1,95 @@
+"""Order lines are not modes: shaft speed range from pulses, bands, labels (closed forms)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import xarray as xr
+
+from gbpipe.errors import ConfigError, DataError
+from gbpipe.identify.harmonic_lines import (
+    harmonic_bands,
+    label_poles,
+    record_harmonic_bands,
+    shaft_frequency_range,
+)
+from gbpipe.measured import parse
+
+
+def sweep_pulses(f0: float, f1: float, duration: float, ppr: int, spacing: np.ndarray
+                 ) -> np.ndarray:
+    """Pulse times of a shaft whose frequency rises linearly from f0 to f1 [Hz]: the
+    closed-form inverse of theta(t) = 2 pi (f0 t + a t^2 / 2), teeth misplaced by
+    ``spacing`` [share of a pitch]."""
+    a = (f1 - f0) / duration
+    revs = f0 * duration + a * duration ** 2 / 2
+    n = np.arange(int(revs * ppr))
+    r = (n + spacing[n % ppr]) / ppr  # revolutions at each pulse
+    return (-f0 + np.sqrt(f0 ** 2 + 2 * a * r)) / a
+
+
+@pytest.mark.parametrize(("f0", "f1", "ppr"), [(10.0, 10.4, 1), (5.0, 25.0, 60),
+                                               (30.0, 29.0, 4)])
+def test_speed_range_from_pulses_cancels_tooth_spacing(f0, f1, ppr):
+    rng = np.random.default_rng(1)
+    # 1.5 % of a pitch per tooth: a per-interval speed would be off by up to ~3 %
+    spacing = 0.015 * rng.standard_normal(ppr) if ppr > 1 else np.zeros(1)
+    duration = 20.0
+    if f1 < f0:  # a run-down: the time-reversed run-up's pulses
+        p = sweep_pulses(f1, f0, duration, ppr, spacing)
+        p = np.sort(duration - p)
+    else:
+        p = sweep_pulses(f0, f1, duration, ppr, spacing)
+    lo, hi = shaft_frequency_range(p, ppr)
+    f_min, f_max = min(f0, f1), max(f0, f1)
+    # each estimate is the mean over one revolution, and the train stops within one
+    # revolution of the end: within two revolutions' change (0.2 %, while the tooth
+    # spacing error alone would move a per-interval estimate by ~3 %)
+    one_rev = 2 * abs(f1 - f0) / duration / f_min
+    assert f_min - 1e-9 <= lo <= f_min + one_rev
+    assert f_max - one_rev <= hi <= f_max + 1e-9
+
+
+def test_bands_closed_form_and_labels_at_the_edges():
+    shaft, res = (10.0, 10.4), 0.5
+    b = harmonic_bands(shaft, [23.0, 2.0], res, n_harmonics=3)
+    # orders 1..3 always, 23 from the list, 2 once
+    np.testing.assert_array_equal(b.order, [1.0, 2.0, 3.0, 23.0])
+    np.testing.assert_allclose(b.low_hz, np.array([1, 2, 3, 23]) * 10.0 - res)
+    np.testing.assert_allclose(b.high_hz, np.array([1, 2, 3, 23]) * 10.4 + res)
+    f = np.array([23 * 10.4 + 0.9 * res, 23 * 10.4 + 1.1 * res, 230.0 - 0.4, 25.0, 31.0,
+                  3 * 10.0 - 1.1 * res])
+    assert label_poles(f, b).tolist() == ["harmonic", "mode", "harmonic", "mode",
+                                          "harmonic", "mode"]
+    # f_max drops the bands that start above it
+    assert harmonic_bands(shaft, [23.0], res, 3, f_max=100.0).order.tolist() == [1, 2, 3]
+
+
+def test_record_without_tacho_and_bad_orders():
+    rec = xr.Dataset({"x": ("time", np.zeros(10))})
+    assert record_harmonic_bands(rec, [], 0.5, 3).order.size == 0
+    with pytest.raises(DataError, match="no tachometer"):
+        record_harmonic_bands(rec, [23.0], 0.5, 3)
+    with pytest.raises(ConfigError, match="positive"):
+        harmonic_bands((10.0, 11.0), [-2.0], 0.5, 3)
+    with pytest.raises(ConfigError, match="resolution"):
+        harmonic_bands((10.0, 11.0), [2.0], 0.0, 3)
+
+
+def test_record_bands_from_its_pulse_train():
+    p = sweep_pulses(12.0, 12.6, 10.0, 2, np.zeros(2))
+    rec = xr.Dataset({"pulse_time": ("pulse", p)}, attrs={"pulses_per_rev": 2})
+    b = record_harmonic_bands(rec, [], 0.25, 2)
+    assert b.shaft_hz[0] == pytest.approx(12.0, abs=0.01)
+    assert b.shaft_hz[1] == pytest.approx(12.6, abs=0.01)
+    assert label_poles([25.4, 26.0], b).tolist() == ["harmonic", "mode"]
+
+
+def test_measured_orders_key():
+    spec = {"files": {"a": {"path": "x.csv", "time": "t"}}, "sample_rate": 100.0,
+            "signals": {"x": {"file": "a", "channel": "c"}}}
+    assert parse(spec).orders == ()
+    assert parse(dict(spec, orders=[23, 46.5])).orders == (23.0, 46.5)
+    for bad in ([0], [float("inf")], "23", [True]):
+        with pytest.raises(ConfigError, match="measured.record.orders"):
+            parse(dict(spec, orders=bad))

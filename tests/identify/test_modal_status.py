@@ -1,0 +1,76 @@
+"""The modes stage on a one-mode record: the closed-form mode, no tacho, and a failed diagram
+that says why without hiding the other one."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import xarray as xr
+from scipy import signal
+
+import gbpipe.identify.modal as modal
+from gbpipe.config import load, merge
+from gbpipe.errors import DataError, ExcitationError
+from gbpipe.identify import record_modes
+from tests.conftest import CONFIG
+
+FS, F0, ZETA, J = 1000.0, 40.0, 0.02, 0.5  # Hz, Hz, -, kg m^2
+
+
+@pytest.fixture(scope="module")
+def one_mode():
+    # a torsional oscillator J x'' + c x' + k x = T: one mode at F0 with damping ZETA
+    wn = 2 * np.pi * F0
+    a = np.array([[0.0, 1.0], [-wn ** 2, -2 * ZETA * wn]])
+    b, c = np.array([[0.0], [1.0 / J]]), np.array([[0.0, 1.0]])
+    rng = np.random.default_rng(5)
+    t = np.arange(int(40 * FS)) / FS
+    u = 50.0 * rng.standard_normal(t.size)
+    sysd = signal.cont2discrete((a, b, c, np.zeros((1, 1))), 1 / FS, method="zoh")
+    _, y, _ = signal.dlsim(sysd[:4] + (1 / FS,), u, t)
+    y = y[:, 0] + 0.02 * y.std() * rng.standard_normal(t.size)
+    rec = xr.Dataset({"torque": ("time", u, {"units": "N m", "long_name": "torque"}),
+                      "speed": ("time", y, {"units": "rad/s", "long_name": "speed"})},
+                     coords={"time": ("time", t, {"units": "s", "long_name": "time"})},
+                     attrs={"sample_rate": FS, "record": "one_mode", "record_kind": "measured"})
+    cfg = merge(load(CONFIG), {"campaign": {"settle": 1.0}, "identify": {
+        "versions": ["raw"], "pairings": [{"name": "T_w", "inputs": ["torque"],
+                                           "outputs": ["speed"]}]}})
+    return cfg, rec
+
+
+def test_closed_form_mode_without_tacho(one_mode):
+    cfg, rec = one_mode
+    ds = record_modes(cfg, rec)
+    assert ds.harmonic_order.size == 0  # no tacho, no lines: every cluster is a mode
+    for method in ds.method.values:
+        d = ds.sel({"method": method}).isel(pairing=0)
+        assert str(d.status.values) == "ok"
+        f, z = d.mode_frequency.values, d.mode_damping.values
+        k = np.flatnonzero(np.abs(f - F0) <= 0.01 * F0)
+        assert k.size == 1 and abs(z[k[0]] - ZETA) <= 0.2 * ZETA, (method, f, z)
+        assert set(d.mode_kind.values[np.isfinite(f)]) == {"mode"}
+        assert int(d.model_order) >= 2
+
+
+def test_failed_diagram_says_why_and_the_other_stands(one_mode, monkeypatch):
+    cfg, rec = one_mode
+
+    def refuse(*args, **kwargs):
+        raise ExcitationError("input torque is not persistently exciting of order 60")
+
+    monkeypatch.setattr(modal, "stabilization_diagram", refuse)
+    ds = record_modes(cfg, rec)
+    sub = ds.sel({"method": cfg["identify"]["stabilization"]["method"]}).isel(pairing=0)
+    assert str(sub.status.values).startswith("failed: ExcitationError: input torque")
+    assert int(sub.model_order) == 0 and not np.isfinite(sub.mode_frequency.values).any()
+    lscf = ds.sel({"method": "lscf"}).isel(pairing=0)
+    assert str(lscf.status.values) == "ok"
+    assert np.any(np.abs(lscf.mode_frequency.values - F0) <= 0.01 * F0)
+
+
+def test_orders_without_tacho_refused_before_any_diagram(one_mode, monkeypatch):
+    cfg, rec = one_mode
+    monkeypatch.setattr(modal, "stabilization_diagram", pytest.fail)  # never reached
+    with pytest.raises(DataError, match="no tachometer"):
+        record_modes(cfg, rec, orders=[23.0])

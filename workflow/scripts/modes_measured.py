@@ -1,0 +1,13 @@
+"""Rule `modes_measured`: stabilization diagrams, modes and model order of one bench record
+(every pairing; docs/modal.md)."""
+
+from gbpipe import io
+from gbpipe.identify import record_modes
+
+snakemake = globals()["snakemake"]
+log = io.setup_log(snakemake.log[0])
+w, cfg = snakemake.wildcards, snakemake.params.cfg
+ds = record_modes(cfg, io.read(snakemake.input.record), snakemake.params.orders)
+io.write(ds, snakemake.output.nc, sources=snakemake.input, stage="modes_measured",
+         config={**cfg, "orders": snakemake.params.orders}, wildcards={"record": w.record},
+         title=f"stabilization diagrams and modes of bench record {w.record}")
