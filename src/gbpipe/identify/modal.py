@@ -9,7 +9,8 @@ version) and two stabilization diagrams are read off it:
   loop) over the model orders ``identify.stabilization.orders``
   (:func:`gbpipe.sysid.stabilization_diagram`);
 * an LSCF one on the nonparametric FRF of the same data (the identify stage's reference,
-  :func:`gbpipe.identify.nonparametric_reference`), over ``lscf_orders``
+  :func:`gbpipe.identify.nonparametric_reference`, on every line but DC up to Nyquist so
+  that no band edge lies in the reported band), over ``lscf_orders``
   (:func:`gbpipe.sysid.lscf_stabilization`).
 
 Each cluster of stable poles is labelled ``harmonic`` when it lies on a shaft-order line
