@@ -9,7 +9,8 @@ version) and two stabilization diagrams are read off it:
   loop) over the model orders ``identify.stabilization.orders``
   (:func:`gbpipe.sysid.stabilization_diagram`);
 * an LSCF one on the nonparametric FRF of the same data (the identify stage's reference,
-  :func:`gbpipe.identify.nonparametric_reference`), over ``lscf_orders``
+  :func:`gbpipe.identify.nonparametric_reference`, on every line but DC up to Nyquist so
+  that no band edge lies in the reported band), over ``lscf_orders``
   (:func:`gbpipe.sysid.lscf_stabilization`).
 
 Each cluster of stable poles is labelled ``harmonic`` when it lies on a shaft-order line
@@ -77,6 +78,25 @@ def _diagrams(u: np.ndarray, y: np.ndarray, ref: Reference, dt: float,
     return out
 
 
+def _whole_band(u: np.ndarray, y: np.ndarray, fs: float, s: Mapping[str, Any],
+                r: np.ndarray | None) -> Reference:
+    """The nonparametric FRF the LSCF diagram fits: every Welch line but DC, to Nyquist.
+
+    A frequency-domain fit leaves its polynomials free outside the fitted lines, and
+    poles gather at the edges of a fitted band (PolyMAX practice: fit a band wider than
+    the one reported). On the z-domain basis the lines from the first above DC to Nyquist
+    constrain the whole unit circle (its lower half is the conjugate), so no edge is left
+    inside the reported band ``frf.f_min``-``f_max`` and no margin has to be chosen; the
+    lines above the anti-aliasing pass band are incoherent and weigh little
+    (:func:`_lscf_weights`). H1 and the reference estimate divide the decimation filter
+    out (it acts on input and output alike). DC is left out: the operating point is
+    removed, so the estimate there is noise over noise.
+    """
+    resolution = 1.0 / float(s["nonparametric"]["segment"])
+    whole = {**s, "frf": {**s["frf"], "f_min": 0.5 * resolution, "f_max": 0.5 * fs}}
+    return nonparametric_reference(u, y, fs, whole, r)
+
+
 def _lscf_weights(ref: Reference) -> np.ndarray:
     # each line of each output weighted by the inverse standard deviation of the estimate
     # (from its 95 % magnitude bounds, averaged over the inputs): the noisy, incoherent
@@ -131,9 +151,8 @@ def record_modes(cfg: Mapping[str, Any], record: xr.Dataset,
     for p in s["pairings"]:
         u, y = rec(p["inputs"], "raw"), rec(p["outputs"], "raw")
         r = rec(p["reference"], "raw") if "reference" in p else None
-        ref = nonparametric_reference(u, y, fs_id, s, r)
-        refs.append(ref)
-        results.append(_diagrams(u, y, ref, 1.0 / fs_id, s))
+        refs.append(nonparametric_reference(u, y, fs_id, s, r))
+        results.append(_diagrams(u, y, _whole_band(u, y, fs_id, s, r), 1.0 / fs_id, s))
         for method, res in results[-1].items():
             if isinstance(res, str):
                 log.warning("%s %s: %s", p["name"], method, res)
