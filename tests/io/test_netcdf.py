@@ -60,21 +60,32 @@ def test_round_trip_values_attrs_and_time(tmp_path):
     assert back.attrs["note"] == "kept" and json.loads(back.attrs["flags"]) == [1, 2]
 
 
-def test_time_is_cf_time_on_disk(tmp_path):
+def test_time_is_plain_seconds_on_disk(tmp_path):
     ds = _dataset()
+    ds.time.attrs["axis"] = "T"  # a producer's calendar hint is not stored
     path = io.write(ds, tmp_path / "a.nc", stage="unit")
     with netCDF4.Dataset(path) as nc:
         time = nc["time"]
-        assert time.units == f"seconds since {io.TIME_EPOCH}"
-        assert (time.standard_name, time.axis, time.calendar) == ("time", "T", "standard")
-        assert "_FillValue" not in time.ncattrs()
-    # a CF-aware reader puts t = 0 at the epoch and counts seconds from it
-    with xr.open_dataset(path, engine="netcdf4") as decoded:
-        offset = (decoded.time.values - np.datetime64(io.TIME_EPOCH.replace(" ", "T")))
-        np.testing.assert_allclose(offset / np.timedelta64(1, "s"), ds.time.values, atol=1e-9)
+        assert time.units == "s" and time.dtype == np.float64
+        assert time.dimensions == (io.TIME_DIM,)
+        assert not {"standard_name", "axis", "calendar", "_FillValue"} & set(time.ncattrs())
+        assert "time" in nc["torque"].coordinates.split()
+    # plain xarray, CF decoding on: numbers in seconds from 0, not dates
+    with xr.open_dataset(path) as plain:
+        assert plain.time.dtype == np.float64
+        np.testing.assert_array_equal(plain.time.values, ds.time.values)
+        np.testing.assert_array_equal(plain.torque.values, ds.torque.values)
     back = io.read(path)
     assert back.time.attrs == {"units": "s", "long_name": "time from record start"}
+    assert back.torque.dims == ("time",) and "time" in back.indexes
     np.testing.assert_array_equal(back.time.values, ds.time.values)
+
+
+def test_refuses_a_variable_named_like_the_time_dimension_on_disk(tmp_path):
+    ds = _dataset()
+    ds[io.TIME_DIM] = ("row", [1.0, 2.0, 3.0], {"units": "1", "long_name": "clash"})
+    with pytest.raises(ValueError, match=io.TIME_DIM):
+        io.write(ds, tmp_path / "a.nc", stage="unit")
 
 
 def test_units_and_labels_on_disk_are_cf(tmp_path):
@@ -184,14 +195,6 @@ def test_config_hash_distinguishes_slices():
     assert io.config_sha256({"a": 1, "b": 2}) == io.config_sha256({"b": 2, "a": 1})
     assert io.config_sha256({"a": 1}) != io.config_sha256({"a": 1.5})
     assert io.config_sha256(None) == hashlib.sha256(b"null").hexdigest()
-
-
-def test_float32_option(tmp_path):
-    path = io.write(_dataset(), tmp_path / "a.nc", stage="unit", float32=True)
-    with netCDF4.Dataset(path) as nc:
-        assert nc["torque"].dtype == np.float32
-        assert nc["time"].dtype == np.float64
-        assert nc["count"].dtype == np.int64
 
 
 def test_read_missing_file(tmp_path):

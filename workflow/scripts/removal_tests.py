@@ -55,11 +55,14 @@ nc = iter(out.nc)
 for (test, profile, path, twin, tsa, versions), tsa_path in zip(done, out.tsa, strict=True):
     wildcards = {"test": test, "profile": profile}
     what = f"Measured-like {test} ({profile})"
+    # the signals after removal keep the records' sensor noise: float32 where it leaves room
     io.write(tsa, tsa_path, sources=[path, *i.code], stage="removal_tests",
+             noisy=[v for v in tsa.data_vars if tsa[v].dims == ("time",)],
              config={"tsa": p.tsa_cfg["tsa"], "stages": p.tsa_cfg["stages"],
                      "signals": p.signals, "keep_below": p.keep_below},
              wildcards=wildcards, title=f"{what} after TSA harmonic removal")
     for method, ds in versions.items():
         io.write(ds, next(nc), sources=[path, twin, i.bench, *i.code], stage="removal_tests",
                  config=config, wildcards={**wildcards, "method": method},
+                 noisy=[v for v in ds.data_vars if ds[v].dims == ("time",)],
                  title=f"{what} after {method} harmonic removal")

@@ -16,18 +16,22 @@ config_sha256, file_sha256, source_files
 measured_signal, mean_shaft_frequency, longest_segment
     The record contract: the measured form of a signal, the tacho shaft's mean speed, the
     longest gap-free piece of a split bench record (:mod:`gbpipe.io.records`).
-cf_units, TIME_EPOCH
-    CF unit spelling and the epoch of relative time axes (:mod:`gbpipe.io.cf`).
+cf_units, TIME_DIM
+    CF unit spelling and the on-disk dimension of relative time axes (:mod:`gbpipe.io.cf`).
+MARGIN_DB, rounding_margin_db
+    When a noisy series is stored as float32 (:mod:`gbpipe.io.storage`).
 """
 
 from gbpipe.io.atomic import atomic_path, clean_temporaries
-from gbpipe.io.cf import TIME_EPOCH, cf_units
+from gbpipe.io.cf import TIME_DIM, cf_units
 from gbpipe.io.netcdf import read, write
 from gbpipe.io.provenance import config_sha256, file_sha256, source_files
 from gbpipe.io.records import longest_segment, mean_shaft_frequency, measured_signal
 from gbpipe.io.runlog import setup_log
+from gbpipe.io.storage import MARGIN_DB, rounding_margin_db
 from gbpipe.io.tables import write_csv
 
 __all__ = ["write", "read", "write_csv", "setup_log", "atomic_path", "clean_temporaries",
-           "config_sha256", "file_sha256", "source_files", "cf_units", "TIME_EPOCH",
-           "measured_signal", "mean_shaft_frequency", "longest_segment"]
+           "config_sha256", "file_sha256", "source_files", "cf_units", "TIME_DIM",
+           "measured_signal", "mean_shaft_frequency", "longest_segment", "MARGIN_DB",
+           "rounding_margin_db"]

@@ -7,8 +7,8 @@ Every stage writes through :func:`write`, which
   ``config_sha256`` of the stage's config slice, ``created``, ``stage``, wildcard values)
   and the CF-1.11 globals (``Conventions``, ``title``, ``institution``, ``source``,
   ``history``, ``references``);
-* stores the relative ``time`` axis the CF way and :func:`read` turns it back into plain
-  seconds;
+* stores the relative ``time`` axis as plain seconds on the dimension :data:`TIME_DIM`,
+  and :func:`read` makes it the ``time`` dimension again;
 * writes to a temporary file in the target folder and renames it, so that a failed
   stage never leaves a half-written output, nor clobbers an existing one.
 
@@ -20,10 +20,16 @@ CF representation choices
 -------------------------
 Relative time
     A coordinate named ``time`` must hold seconds from the record start (``units: s``).
-    It is stored as ``seconds since 2000-01-01 00:00:00`` (:data:`TIME_EPOCH`, arbitrary:
-    CF wants a reference date) with ``standard_name: time``, ``calendar: standard``,
-    ``axis: T`` and ``units_metadata: "leap_seconds: none"`` — a simulation or logger
-    clock counts SI seconds and never inserts leap seconds.
+    It is stored as it is: float64 seconds, ``units: s``, so that any netCDF reader
+    (plain ``xarray.open_dataset`` included) gives numbers a person can compute with, not
+    dates from an arbitrary epoch. The absolute start of a bench record, where its files
+    know it, is the global attribute ``record_start`` (ISO 8601). A dimension named
+    ``time`` is taken by CF checkers as a calendar axis (``standard_name: time``, units
+    ``<unit> since <date>``), so on disk the axis is the dimension :data:`TIME_DIM` and
+    ``time`` its auxiliary coordinate (CF §5), listed in the ``coordinates`` attribute of
+    the variables along it; :func:`read` makes ``time`` the dimension again. A producer's
+    ``axis`` and ``standard_name`` on ``time`` are not stored: they would make a reader
+    expect a calendar.
 Labelled dimensions
     CF (§1.3, after the NUG) defines a coordinate variable — one named like its
     dimension — as *numeric and strictly monotonic*. A dimension coordinate that is not
@@ -46,14 +52,11 @@ Units
       is a placeholder there, not a claim that the elements are dimensionless, and the
       comment says exactly that.
 Encoding
-    NetCDF-4 (HDF5), uncompressed: the bulk of every output is noise-like float time series,
-    which zlib (level 4, shuffle) shrank by 30 % (a converted bench record) to 38 % (a
-    simulated record) at 20 s of the full run's 160 s of CPU and 83 % of a bench-record
-    conversion's time (docs/measured.md). No ``_FillValue`` on coordinates
-    (CF forbids missing coordinate values), on integers or on strings; strings as
-    NetCDF-4 ``string`` (allowed since CF-1.9). The in-memory ``encoding`` of the input
-    (e.g. left over from a file it was read from) is ignored: this writer alone decides
-    the on-disk form.
+    NetCDF-4 (HDF5); the codec and the precision of each variable are chosen by
+    :mod:`gbpipe.io.storage`. No ``_FillValue`` on coordinates (CF forbids missing
+    coordinate values), on integers or on strings; strings as NetCDF-4 ``string`` (allowed
+    since CF-1.9). The in-memory ``encoding`` of the input (e.g. left over from a file it
+    was read from) is ignored: this writer alone decides the on-disk form.
 """
 
 from __future__ import annotations
@@ -67,20 +70,14 @@ import xarray as xr
 
 from gbpipe.io.provenance import jsonable
 
-__all__ = ["TIME_EPOCH", "cf_units", "check_metadata", "encode", "decode", "encoding",
-           "attr_value", "append_line"]
+__all__ = ["TIME_DIM", "cf_units", "check_metadata", "encode", "decode", "attr_value",
+           "append_line"]
 
-#: Epoch of the CF encoding of relative time axes. A record's t = 0 is its start; the
-#: epoch is only there because CF wants a reference date for a ``time`` coordinate.
-TIME_EPOCH = "2000-01-01 00:00:00"
-_TIME_UNITS = f"seconds since {TIME_EPOCH}"
-_TIME_ATTRS = {
-    "units": _TIME_UNITS,
-    "standard_name": "time",
-    "calendar": "standard",
-    "axis": "T",
-    "units_metadata": "leap_seconds: none",
-}
+#: On-disk name of the dimension of the relative time axis (``time`` is its auxiliary
+#: coordinate there; see "Relative time" above).
+TIME_DIM = "sample"
+# Attributes of a producer's time axis that would make a CF reader expect a calendar.
+_CALENDAR_ATTRS = ("axis", "standard_name", "calendar", "units_metadata")
 # Spellings of "seconds" a producer may give the relative time axis.
 _SECONDS = {"s", "second", "seconds", "sec"}
 
@@ -140,6 +137,10 @@ def check_metadata(ds: xr.Dataset) -> None:
         raise ValueError(
             f"coordinate 'time' must be seconds from the record start (units 's'); got "
             f"units {ds['time'].attrs['units']!r}: convert it to seconds first")
+    if "time" in ds.dims and (TIME_DIM in ds.variables or TIME_DIM in ds.dims):
+        raise ValueError(
+            f"the time axis is stored on the dimension {TIME_DIM!r}, but the dataset already "
+            f"has a dimension or variable {TIME_DIM!r}: rename it")
     for dim in ds.dims:
         label = f"{dim}{_LABEL_SUFFIX}"
         if dim in ds.coords and not is_cf_coordinate(ds[dim]) and label in ds.variables:
@@ -181,7 +182,8 @@ def encode(out: xr.Dataset) -> xr.Dataset:
     for name in out.variables:
         attrs = {k: attr_value(v) for k, v in out[name].attrs.items()}
         if name == "time" and name in out.coords:
-            attrs.update(_TIME_ATTRS)
+            attrs = {k: v for k, v in attrs.items() if k not in _CALENDAR_ATTRS}
+            attrs["units"] = "s"  # the spelling of _SECONDS every reader knows
         else:
             units, note = cf_units(attrs["units"]) if "units" in attrs else (None, None)
             if units is not None and units != attrs["units"]:
@@ -190,6 +192,9 @@ def encode(out: xr.Dataset) -> xr.Dataset:
             if note:
                 attrs["comment"] = append_line(attrs.get("comment"), note)
         out[name].attrs = attrs
+    if "time" in out.coords and out["time"].dims == ("time",):
+        # before the labels: on disk, time is no coordinate variable and need not be sorted
+        out = out.swap_dims({"time": TIME_DIM})
     for dim in list(out.dims):
         if dim in out.coords and not is_cf_coordinate(out[dim]):
             coord = out[dim]
@@ -199,24 +204,9 @@ def encode(out: xr.Dataset) -> xr.Dataset:
     return out
 
 
-def encoding(out: xr.Dataset, float32: bool) -> dict[str, dict[str, Any]]:
-    encoding: dict[str, dict[str, Any]] = {}
-    for name, var in out.variables.items():
-        enc: dict[str, Any] = {}
-        if name in out.coords:
-            enc["_FillValue"] = None
-        elif var.dtype.kind in "fc" and float32 and var.dtype == np.float64:
-            enc["dtype"] = "float32"
-        if var.dtype.kind in "iubUS" or var.dtype == object:
-            enc["_FillValue"] = None
-        encoding[name] = enc
-    return encoding
-
-
-
-
-def decode(ds: xr.Dataset) -> xr.Dataset:
-    """Undo :func:`encode`: producer units, labelled dimensions, time in plain seconds."""
+def decode(ds: xr.Dataset, index: bool = True) -> xr.Dataset:
+    """Undo :func:`encode`: producer units, labelled dimensions, ``time`` as the dimension
+    of its axis (with a pandas index on it if ``index``; building one reads the axis)."""
     for name in list(ds.variables):
         attrs = dict(ds[name].attrs)
         if _ORIGINAL_UNITS in attrs:
@@ -236,8 +226,8 @@ def decode(ds: xr.Dataset) -> xr.Dataset:
             dim = label.attrs[_LABELS_OF]
             attrs = {k: v for k, v in label.attrs.items() if k != _LABELS_OF}
             ds = ds.drop_vars(name).assign_coords({dim: (dim, label.values, attrs)})
-    if "time" in ds.coords and str(ds["time"].attrs.get("units", "")).startswith("seconds since"):
-        ds["time"].attrs["units"] = "s"
-        for key in ("standard_name", "calendar", "axis", "units_metadata"):
-            ds["time"].attrs.pop(key, None)
+    if "time" in ds.coords and ds["time"].dims == (TIME_DIM,):
+        ds = ds.swap_dims({TIME_DIM: "time"})
+        if not index:
+            ds = ds.drop_indexes("time")
     return ds

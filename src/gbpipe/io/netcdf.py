@@ -4,7 +4,8 @@ Every stage writes through :func:`write`, which refuses a variable without ``uni
 ``long_name``, adds the provenance of the data contract (``docs/architecture.md``, "Data
 contract": gbpipe version, config hash, source files with their SHA-256, wildcards) and
 the CF-1.11 globals, encodes the dataset the CF way (:mod:`gbpipe.io.cf`) and writes it
-atomically (:mod:`gbpipe.io.atomic`). :func:`read` undoes the encoding.
+atomically (:mod:`gbpipe.io.atomic`), each variable compressed and at the precision
+:mod:`gbpipe.io.storage` chooses. :func:`read` undoes the encoding.
 """
 
 from __future__ import annotations
@@ -12,15 +13,16 @@ from __future__ import annotations
 import datetime as _dt
 import json
 import os
-from collections.abc import Iterable, Mapping
+from collections.abc import Collection, Iterable, Mapping
 from pathlib import Path
 from typing import Any
 
 import xarray as xr
 
 from gbpipe.io.atomic import atomic_path
-from gbpipe.io.cf import append_line, attr_value, check_metadata, decode, encode, encoding
+from gbpipe.io.cf import TIME_DIM, append_line, attr_value, check_metadata, decode, encode
 from gbpipe.io.provenance import __version__, config_sha256, jsonable, source_files
+from gbpipe.io.storage import storage
 
 __all__ = ["write", "read"]
 
@@ -35,6 +37,7 @@ def write(
     sources: Iterable[str | os.PathLike] = (),
     title: str | None = None,
     float32: bool = False,
+    noisy: Collection[str] = (),
 ) -> Path:
     """Write a dataset as CF-1.11 NetCDF-4 with provenance, atomically.
 
@@ -60,7 +63,16 @@ def write(
     title : str, optional
         Human-readable title; defaults to the dataset's ``title`` or ``"gbpipe <stage>"``.
     float32 : bool, default False
-        Store float64 data variables as float32 (coordinates stay float64).
+        Store every float64 data variable as float32 (coordinates stay float64): for
+        stages whose data need no more. Each such variable's ``comment`` says what
+        rounding cost.
+    noisy : collection of str, optional
+        Measured(-like) time series (data variables on ``time``): each is stored as
+        float32 where its rounding error lies at least
+        :data:`gbpipe.io.storage.MARGIN_DB` below the series' own power spectral density
+        at every frequency (its noise floor leaves room), else as float64; its
+        ``comment`` says which margin it had. Never name a series that another computation
+        compares exactly (a noise-free reference).
 
     Returns
     -------
@@ -70,8 +82,9 @@ def write(
     Raises
     ------
     ValueError
-        If a variable lacks ``units`` or ``long_name``, if ``time`` is not in seconds, or
-        if a labelled dimension's ``<dim>_label`` name is already taken.
+        If a variable lacks ``units`` or ``long_name``, if ``time`` is not in seconds, if
+        a labelled dimension's ``<dim>_label`` name or the time dimension's on-disk name
+        is already taken, or if ``noisy`` names a variable not on ``time``.
     """
     check_metadata(ds)
     path = Path(path)
@@ -103,8 +116,7 @@ def write(
     for key, value in (wildcards or {}).items():
         out.attrs[f"wildcard_{key}"] = str(value)
     out.attrs = {k: attr_value(v) for k, v in out.attrs.items()}
-    out = encode(out)
-    enc = encoding(out, float32)
+    out, enc = storage(encode(out), float32, set(noisy), TIME_DIM)
     with atomic_path(path) as tmp:
         out.to_netcdf(tmp, engine="netcdf4", format="NETCDF4", encoding=enc)
     return path
@@ -113,7 +125,8 @@ def write(
 def read(path: str | os.PathLike) -> xr.Dataset:
     """Read a gbpipe NetCDF file fully into memory, undoing the CF encoding of :func:`write`.
 
-    The relative ``time`` axis comes back as float seconds with ``units: s``; labelled
+    The relative ``time`` axis comes back as the dimension ``time`` (float seconds,
+    ``units: s``; on disk it is a coordinate of :data:`gbpipe.io.cf.TIME_DIM`); labelled
     dimensions get their string (or unsorted) coordinate back; units that :func:`write`
     had to respell or replace come back as the producer wrote them.
 

@@ -22,7 +22,7 @@ import netCDF4
 import xarray as xr
 
 from gbpipe.io import atomic_path, write
-from gbpipe.io.cf import decode
+from gbpipe.io.cf import TIME_DIM, decode
 
 __all__ = ["write_blocks", "write_dataset", "open_record", "CHUNK", "INDEX_LIMIT"]
 
@@ -90,16 +90,16 @@ def _expand(src: netCDF4.Dataset, dst: netCDF4.Dataset, n_time: int) -> None:
     dst.set_auto_maskandscale(False)
     dst.setncatts({k: src.getncattr(k) for k in src.ncattrs()})
     for name, dim in src.dimensions.items():
-        dst.createDimension(name, n_time if name == "time" else len(dim))
+        dst.createDimension(name, n_time if name == TIME_DIM else len(dim))
     for name, var in src.variables.items():
         attrs = {k: var.getncattr(k) for k in var.ncattrs()}
         filters = var.filters() or {}
-        timed = "time" in var.dimensions
+        timed = TIME_DIM in var.dimensions
         new = dst.createVariable(
             name, var.datatype, var.dimensions, zlib=bool(filters.get("zlib")),
             complevel=filters.get("complevel", 4), shuffle=bool(filters.get("shuffle")),
             fill_value=attrs.pop("_FillValue", False),
-            chunksizes=[min(n_time, CHUNK) if d == "time" else len(src.dimensions[d])
+            chunksizes=[min(n_time, CHUNK) if d == TIME_DIM else len(src.dimensions[d])
                         for d in var.dimensions] if timed else None)
         new.setncatts(attrs)
         if timed:
@@ -122,6 +122,6 @@ def open_record(path: str | os.PathLike, index_limit: int | None = None) -> xr.D
     """
     limit = INDEX_LIMIT if index_limit is None else index_limit
     with netCDF4.Dataset(path) as nc:
-        n = len(nc.dimensions["time"]) if "time" in nc.dimensions else 0
+        n = len(nc.dimensions[TIME_DIM]) if TIME_DIM in nc.dimensions else 0
     return decode(xr.open_dataset(path, engine="netcdf4", decode_times=False,
-                                  create_default_indexes=n <= limit))
+                                  create_default_indexes=n <= limit), index=n <= limit)

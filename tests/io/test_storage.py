@@ -1,0 +1,139 @@
+"""On-disk form of gbpipe.io.write: float32 only where a series' noise leaves room
+(against closed forms of float32 rounding), compression applied, plain seconds on time."""
+
+from __future__ import annotations
+
+import re
+
+import h5py
+import netCDF4
+import numpy as np
+import pytest
+import xarray as xr
+
+from gbpipe import io
+
+FS = 5000.0  # Hz
+N = 1 << 16  # samples
+
+
+def _record(series: dict[str, np.ndarray]) -> xr.Dataset:
+    t = np.arange(N) / FS
+    return xr.Dataset(
+        {name: ("time", x, {"units": "rad/s", "long_name": name}) for name, x in series.items()},
+        coords={"time": ("time", t, {"units": "s", "long_name": "time from record start"})})
+
+
+def _ulp32(x: float) -> float:
+    """float32's spacing at |x| (closed form: 2^(floor(log2|x|) - 23))."""
+    return 2.0 ** (np.floor(np.log2(abs(x))) - 23)
+
+
+# (offset, sensor noise rms): speeds and torques of several machines, signs and scales
+CASES = [(117.0, 2e-3), (16250.0, 10.0), (-3.5, 1e-4), (0.02, 1e-6), (1.0e5, 0.5)]
+
+
+@pytest.mark.parametrize("offset, sigma", CASES)
+def test_noisy_series_is_float32_within_the_declared_rounding_below_its_noise(
+        tmp_path, offset, sigma):
+    rng = np.random.default_rng(7)
+    t = np.arange(N) / FS
+    x = offset * (1.0 + 0.01 * np.sin(2 * np.pi * 3.0 * t)) + sigma * rng.standard_normal(N)
+    path = io.write(_record({"x": x}), tmp_path / "a.nc", stage="unit", noisy=["x"])
+    with netCDF4.Dataset(path) as nc:
+        assert nc["x"].dtype == np.float32
+    back = io.read(path)
+    err = back.x.values.astype(np.float64) - x
+    # round to nearest: at most half float32's spacing at the largest magnitude
+    top = np.max(np.abs(x))
+    assert np.max(np.abs(err)) <= 0.5 * _ulp32(top)
+    # the declared bound is the error there is (3 significant digits)
+    declared = float(re.search(r"rounding error at most ([0-9.e+-]+)",
+                               back.x.attrs["comment"]).group(1))
+    assert declared == pytest.approx(np.max(np.abs(err)), rel=5e-3)
+    # and it lies under the noise the test drew: the rms at least 40 dB below sigma
+    assert np.std(err) < sigma * 10 ** (-io.MARGIN_DB / 20)
+
+
+@pytest.mark.parametrize("offset, sigma", CASES)
+def test_margin_is_noise_over_rounding_rms(offset, sigma):
+    # white noise over white rounding: the PSD ratio is sigma^2 over the rounding
+    # variance, whose closed form for round-to-nearest is ulp^2/12 (uniform error).
+    # Each of the 512 bands averages 256 lines here (2^18 samples): the ratio of two such
+    # estimates scatters by ~10 % rms, so its minimum over the bands lies 1-2 dB under
+    rng = np.random.default_rng(3)
+    x = offset + sigma * rng.standard_normal(1 << 18)
+    expected = 20 * np.log10(sigma / (_ulp32(offset) / np.sqrt(12)))
+    got = io.rounding_margin_db(x)
+    assert expected - 3.0 <= got <= expected + 0.5, (got, expected)
+
+
+def test_series_without_noise_room_stays_float64_and_exact(tmp_path):
+    t = np.arange(N) / FS
+    rng = np.random.default_rng(5)
+    ulp = _ulp32(117.0)
+    series = {
+        # a smooth response: float32 would bury its high-frequency content
+        "smooth": 117.0 + np.sin(2 * np.pi * 3.0 * t),
+        # noise only 20 dB over float32's rounding: below the 40 dB margin
+        "quiet": 117.0 + 10 * ulp / np.sqrt(12) * rng.standard_normal(N),
+        # noisy but named by nobody: the producer did not ask
+        "other": 117.0 + 1e-2 * rng.standard_normal(N),
+    }
+    path = io.write(_record(series), tmp_path / "a.nc", stage="unit",
+                    noisy=["smooth", "quiet"])
+    back = io.read(path)
+    for name, x in series.items():
+        assert back[name].dtype == np.float64, name
+        np.testing.assert_array_equal(back[name].values, x, err_msg=name)
+        assert "comment" not in back[name].attrs, name
+
+
+def test_noisy_names_only_time_series(tmp_path):
+    ds = _record({"x": np.ones(N)})
+    ds["gain"] = ("row", [1.0, 2.0], {"units": "1", "long_name": "gain"})
+    for wrong in ("gain", "missing"):
+        with pytest.raises(ValueError, match=wrong):
+            io.write(ds, tmp_path / "a.nc", stage="unit", noisy=[wrong])
+
+
+def test_compression_is_applied_and_pays(tmp_path):
+    rng = np.random.default_rng(11)
+    sigma = 2e-3
+    x = 117.0 + sigma * rng.standard_normal(N)
+    path = io.write(_record({"x": x}), tmp_path / "a.nc", stage="unit", noisy=["x"])
+    with netCDF4.Dataset(path) as nc:
+        for name in ("time", "x"):
+            filters = nc[name].filters()
+            assert filters["zlib"] and filters["shuffle"] and filters["complevel"] == 1, name
+    with h5py.File(path) as h5:
+        stored = {name: h5[name].id.get_storage_size() for name in ("time", "x")}
+    # Entropy bound: float32 values of Gaussian noise of rms sigma on a grid of spacing
+    # ulp carry log2(sigma sqrt(2 pi e) / ulp) bits each (10.1 of 32 here), so x cannot
+    # shrink below that; zlib on shuffled bytes gets within 1.6x of it (its Huffman stage
+    # codes each byte plane apart: 1.5x measured).
+    bits = np.log2(sigma * np.sqrt(2 * np.pi * np.e) / _ulp32(117.0))
+    bound = N * bits / 8
+    assert bound < stored["x"] < 1.6 * bound, (stored["x"], bound)
+    # a regular time axis is near all redundancy: shuffled, its bytes repeat
+    assert stored["time"] < N * 8 / 10, stored["time"]
+
+
+def test_plain_xarray_gives_time_in_seconds_from_zero(tmp_path):
+    x = np.random.default_rng(2).standard_normal(N)
+    path = io.write(_record({"x": x}), tmp_path / "a.nc", stage="unit")
+    with xr.open_dataset(path) as plain:  # no gbpipe, CF decoding on
+        assert plain.time.dtype == np.float64 and plain.time.attrs["units"] == "s"
+        assert plain.time.values[0] == 0.0
+        np.testing.assert_allclose(np.diff(plain.time.values), 1 / FS, rtol=1e-9)
+        # computing with it: the record lasts N / FS seconds
+        assert float(plain.time[-1] - plain.time[0]) == pytest.approx((N - 1) / FS)
+
+
+def test_forced_float32_says_what_it_cost(tmp_path):
+    x = 1000.0 + np.random.default_rng(4).standard_normal(N)
+    path = io.write(_record({"x": x}), tmp_path / "a.nc", stage="unit", float32=True)
+    back = io.read(path)
+    assert back.x.dtype == np.float32 and back.time.dtype == np.float64
+    assert np.max(np.abs(back.x.values - x)) <= 0.5 * _ulp32(np.max(np.abs(x)))
+    assert "producing stage's choice" in back.x.attrs["comment"]
