@@ -20,9 +20,11 @@ import numpy as np
 import xarray as xr
 
 from gbpipe.errors import StageError
+from gbpipe.identify.checks import check_signals
 from gbpipe.identify.dataset import models_dataset
 from gbpipe.identify.fitting import METHODS, fit_model, fit_with_bounds, validation_fit
 from gbpipe.identify.metrics import identified_modes, match_modes
+from gbpipe.identify.orders import row_order
 from gbpipe.identify.prepare import ConditionedRecord
 from gbpipe.identify.reference import (
     Reference,
@@ -31,6 +33,7 @@ from gbpipe.identify.reference import (
     truth_reference,
     within_reference,
 )
+from gbpipe.identify.status import assess, reference_growth_rate
 from gbpipe.io import longest_segment
 
 __all__ = ["identify_methods", "identify_record", "holdout_split", "record_label"]
@@ -56,16 +59,17 @@ def _fit_row(res: dict[str, Any], method: str, data: tuple[np.ndarray, ...], dt:
     # where the reference cannot judge (an incoherent estimate) the error is NaN: those
     # frequencies are skipped, they do not count as a miss
     f = ref.frequency
+    bw = reference_bandwidth(f, err, ref, tol)
     res.update(model=m, g_id=g_id, g_lower_db=lower_db, g_upper_db=upper_db, err=err, fit=fit,
-               bandwidth=reference_bandwidth(f, err, ref, tol),
+               bandwidth=bw,
                element_bw=np.array([[reference_bandwidth(f, err[:, o, i], ref, tol)
                                      for i in range(err.shape[2])]
                                     for o in range(err.shape[1])]),
                modes_id=fm_id, zeta_id=zm_id,
                modes_matched=match_modes(ref.modes, fm_id))
-    # a NaN or inf fit is a failure, never "ok"
-    res["status"] = ("ok" if np.all(np.isfinite(fit)) else
-                     f"failed: validation fit is not finite ({np.round(fit, 1).tolist()} %)")
+    # the evidence the match band rests on: assessable frequencies inside it
+    n_points = int(np.sum(ref.assessable & (f <= bw)))
+    res["verdict"] = assess(m, fit, n_points, reference_growth_rate(ref.modes, ref.damping), s)
 
 
 def holdout_split(x: np.ndarray, share: float) -> tuple[np.ndarray, np.ndarray]:
@@ -94,7 +98,8 @@ def identify_methods(cfg: Mapping[str, Any], record: xr.Dataset,
                      validation: xr.Dataset | None, truth: xr.Dataset | None,
                      methods: Sequence[str],
                      removed: Mapping[str, tuple[xr.Dataset, xr.Dataset | None]]
-                     | None = None) -> dict[str, xr.Dataset]:
+                     | None = None, orders: Mapping[str, int] | None = None,
+                     order_source: Mapping[str, str] | None = None) -> dict[str, xr.Dataset]:
     """Identify every configured pairing x data version of one record with each method.
 
     Parameters
@@ -118,17 +123,28 @@ def identify_methods(cfg: Mapping[str, Any], record: xr.Dataset,
         validation record after that removal (``removal_tests``
         outputs; the second None without a validation record). Required for every
         version in ``identify.versions`` but ``clean`` and ``raw``.
+    orders : mapping str -> int, optional
+        Model order per pairing name (e.g. from the record's stabilization diagram:
+        :func:`gbpipe.identify.orders.stabilization_orders`); a pairing absent from it is
+        fitted with ``identify.order`` (``stabilization`` without an order: ``auto``).
+    order_source : mapping str -> str, optional
+        Where each order of ``orders`` came from (stored per model as ``order_source``).
 
     Returns
     -------
     dict of str -> xarray.Dataset
-        Per method, :func:`gbpipe.identify.models_dataset`; ``status`` says "ok" or why a
-        row failed; the ``reference`` attribute says what the FRFs were scored against.
+        Per method, :func:`gbpipe.identify.models_dataset`; ``status`` is ok, poor or
+        failed and ``reason`` says why (:mod:`gbpipe.identify.status`); the ``reference``
+        attribute says what the FRFs were scored against.
 
     Raises
     ------
     ValueError
         An unknown method, or a removal version without its records in ``removed``.
+    gbpipe.errors.DataError
+        Before any fit: an input, output or reference signal without variance, or an
+        input without power in the identified band (:func:`gbpipe.identify.checks.
+        check_signals`).
     gbpipe.errors.StageError
         Every row of a method failed (the message lists each failure).
     """
@@ -154,11 +170,18 @@ def identify_methods(cfg: Mapping[str, Any], record: xr.Dataset,
            ConditionedRecord(validation, {v: tv for v, (_, tv) in removed.items()}, *grid))
 
     rows = []  # (pairing, version, data, reference): what every method fits and is scored on
+    where, band = record_label(record), (s["frf"]["f_min"], s["frf"]["f_max"])
     for p in s["pairings"]:
         ref_truth = truth_reference(truth, p, record) if truth is not None else None
         # a mapped set-point of a closed-loop bench record: the nonparametric estimate
         # goes through it, free of the feedback's bias (its version is immaterial)
         r = rec(p["reference"], "raw") if "reference" in p else None
+        # unusable signals are refused here, before any fit (checks.py)
+        first = s["versions"][0]
+        check_signals(where, p["inputs"], rec(p["inputs"], first), "input", fs_id, band)
+        check_signals(where, p["outputs"], rec(p["outputs"], first), "output", fs_id)
+        if r is not None:
+            check_signals(where, p["reference"], r, "reference", fs_id)
         if r is not None and val is None:
             r = holdout_split(r, s["holdout"])[0]
         for version in s["versions"]:
@@ -174,8 +197,11 @@ def identify_methods(cfg: Mapping[str, Any], record: xr.Dataset,
     # window products (gbpipe.sysid remembers them: gbpipe.memo)
     results: dict[str, list[dict[str, Any]]] = {method: [] for method in methods}
     for p, version, data, ref in rows:
+        order, source = row_order(s, p["name"], orders, order_source)
+        s_row = {**s, "order": order}
         for method in methods:
-            results[method].append(_identify_row(method, p, version, data, ref, dt, s))
+            res = _identify_row(method, p, version, data, ref, dt, s_row)
+            results[method].append({**res, "order_source": source})
     return {method: _method_dataset(method, results[method], dt, s, record, validation)
             for method in methods}
 
@@ -189,13 +215,15 @@ def _identify_row(method: str, p: Mapping[str, Any], version: str,
     try:
         _fit_row(res, method, data, dt, s)
     except (ValueError, RuntimeError, np.linalg.LinAlgError) as exc:
-        res.update(status=f"failed: {type(exc).__name__}: {exc}", model=None)
-    if res["status"] == "ok":
-        log.info("%s %-14s %-5s order %2d: bandwidth %6.1f Hz (vs %s), fit %s %%",
-                 method, p["name"], version, res["model"].order, res["bandwidth"],
-                 ref.kind, np.round(res["fit"], 1))
+        res.update(model=None,
+                   verdict=assess(None, None, 0, 0.0, s, f"{type(exc).__name__}: {exc}"))
+    res["status"], res["reason"] = res["verdict"].status, res["verdict"].reason
+    if res["status"] == "failed":
+        log.warning("%s %s/%s failed: %s", method, p["name"], version, res["reason"])
     else:
-        log.warning("%s %s/%s %s", method, p["name"], version, res["status"])
+        log.info("%s %-14s %-5s order %2d: bandwidth %6.1f Hz (vs %s), fit %s %%: %s (%s)",
+                 method, p["name"], version, res["model"].order, res["bandwidth"],
+                 ref.kind, np.round(res["fit"], 1), res["status"], res["reason"])
     return res
 
 
@@ -203,8 +231,8 @@ def _method_dataset(method: str, results: list[dict[str, Any]], dt: float,
                     s: Mapping[str, Any], record: xr.Dataset,
                     validation: xr.Dataset | None) -> xr.Dataset:
     # the method's dataset from its rows; every row failed: StageError
-    if not any(r["status"] == "ok" for r in results):
-        failures = "\n".join(f"  {r['pairing']}/{r['version']}: {r['status']}" for r in results)
+    if all(r["status"] == "failed" for r in results):
+        failures = "\n".join(f"  {r['pairing']}/{r['version']}: {r['reason']}" for r in results)
         raise StageError(f"identify {method} on {record_label(record)}: all {len(results)} "
                          f"identifications failed:\n{failures}")
     return models_dataset(results, dt, method, s, record, validation)
