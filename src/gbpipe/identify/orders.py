@@ -60,7 +60,7 @@ def stabilization_orders(modes: xr.Dataset, method: str, pairings: Sequence[str]
         if p not in have:
             raise DataError(source, f"model_order has no pairing {p!r} (it has {have}): rerun "
                             "rule modes_measured for the current identify.pairings")
-        val = float(mo.sel(method=row, pairing=p))
+        val = float(mo.sel({"method": row, "pairing": p}))  # "method" is also a sel() kwarg
         if not (np.isfinite(val) and val >= 1 and val == round(val)):
             raise DataError(source, f"model_order[method={row}, pairing={p}] is {val}, not a "
                             "positive integer: the stabilization diagram found no stable "

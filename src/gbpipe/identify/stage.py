@@ -25,7 +25,7 @@ from gbpipe.identify.dataset import models_dataset
 from gbpipe.identify.fitting import METHODS, fit_model, fit_with_bounds, validation_fit
 from gbpipe.identify.metrics import identified_modes, match_modes
 from gbpipe.identify.orders import row_order
-from gbpipe.identify.prepare import ConditionedRecord
+from gbpipe.identify.prepare import ConditionedRecord, decimation_filter, version_signals
 from gbpipe.identify.reference import (
     Reference,
     nonparametric_reference,
@@ -34,9 +34,10 @@ from gbpipe.identify.reference import (
     within_reference,
 )
 from gbpipe.identify.status import assess, reference_growth_rate
+from gbpipe.identify.windows import band_energy, excitation_onset, fit_pieces, holdout_window
 from gbpipe.io import longest_segment
 
-__all__ = ["identify_methods", "identify_record", "holdout_split", "record_label"]
+__all__ = ["identify_methods", "identify_record", "record_label"]
 
 log = logging.getLogger("gbpipe")
 
@@ -50,7 +51,7 @@ def _fit_row(res: dict[str, Any], method: str, data: tuple[np.ndarray, ...], dt:
         m, lower_db, upper_db = fit_with_bounds(method, u, y, dt, s, ref.frequency)
     else:  # no bounds for this method (identify.bounds)
         m = fit_model(method, u, y, dt, s)
-        lower_db = upper_db = np.full((ref.frequency.size, y.shape[1], u.shape[1]), np.nan)
+        lower_db = upper_db = np.full((ref.frequency.size, yv.shape[1], uv.shape[1]), np.nan)
     g_id = m.frf(ref.frequency)
     err = within_reference(g_id, ref, s["tolerance_db"])
     fit = validation_fit(m, uv, yv, int(round(s["fit_segment"] / dt)))
@@ -72,26 +73,18 @@ def _fit_row(res: dict[str, Any], method: str, data: tuple[np.ndarray, ...], dt:
     res["verdict"] = assess(m, fit, n_points, reference_growth_rate(ref.modes, ref.damping), s)
 
 
-def holdout_split(x: np.ndarray, share: float) -> tuple[np.ndarray, np.ndarray]:
-    """Fit and validation parts of conditioned data: the last ``share`` is held out.
-
-    Used when a measured record has no validation record of its own: the fit % is then
-    computed on data the fit never saw (the end of the record).
-    """
-    n_val = int(round(share * len(x)))
-    return x[:len(x) - n_val], x[len(x) - n_val:]
-
-
 def identify_record(cfg: Mapping[str, Any], record: xr.Dataset,
                     validation: xr.Dataset | None, truth: xr.Dataset | None, method: str,
                     removed: Mapping[str, tuple[xr.Dataset, xr.Dataset | None]]
-                    | None = None) -> xr.Dataset:
+                    | None = None, **kwargs: Any) -> xr.Dataset:
     """Identify every configured pairing x data version of one record with one method.
 
-    :func:`identify_methods` with ``methods=(method,)``; the parameters, return value and
-    errors are those of one of its methods.
+    :func:`identify_methods` with ``methods=(method,)`` (``kwargs``: its ``orders``,
+    ``order_source``, ``validation_window``); the parameters, return value and errors are
+    those of one of its methods.
     """
-    return identify_methods(cfg, record, validation, truth, (method,), removed)[method]
+    return identify_methods(cfg, record, validation, truth, (method,), removed,
+                            **kwargs)[method]
 
 
 def identify_methods(cfg: Mapping[str, Any], record: xr.Dataset,
@@ -99,7 +92,9 @@ def identify_methods(cfg: Mapping[str, Any], record: xr.Dataset,
                      methods: Sequence[str],
                      removed: Mapping[str, tuple[xr.Dataset, xr.Dataset | None]]
                      | None = None, orders: Mapping[str, int] | None = None,
-                     order_source: Mapping[str, str] | None = None) -> dict[str, xr.Dataset]:
+                     order_source: Mapping[str, str] | None = None,
+                     validation_window: tuple[float, float] | None = None
+                     ) -> dict[str, xr.Dataset]:
     """Identify every configured pairing x data version of one record with each method.
 
     Parameters
@@ -110,8 +105,8 @@ def identify_methods(cfg: Mapping[str, Any], record: xr.Dataset,
         The record identified: simulated (:func:`gbpipe.simulate.test`) or measured
         (:func:`gbpipe.measured.read`).
     validation : xarray.Dataset or None
-        The record the fit % is computed on (never used for fitting). None: the last
-        ``identify.holdout`` share of ``record`` is held out instead.
+        The record the fit % is computed on (never used for fitting). None: a window of
+        ``record`` is held out instead (``validation_window``).
     truth : xarray.Dataset or None
         The model stage's ``truth.nc`` (true FRFs on the identification grid, modes). None
         for a measured record: each model is scored against the nonparametric FRF of the
@@ -129,6 +124,12 @@ def identify_methods(cfg: Mapping[str, Any], record: xr.Dataset,
         fitted with ``identify.order`` (``stabilization`` without an order: ``auto``).
     order_source : mapping str -> str, optional
         Where each order of ``orders`` came from (stored per model as ``order_source``).
+    validation_window : (float, float), optional
+        Without ``validation``: the held-out ``start, end`` [s from the record start]
+        (``measured.<record>.validation``); default: the latest ``identify.holdout`` of
+        the record holding ``identify.holdout_power_min`` of the inputs' band power
+        (:mod:`gbpipe.identify.windows`). The operating point of such a record is its mean
+        before the inputs' first excitation (at most ``campaign.settle``).
 
     Returns
     -------
@@ -163,31 +164,48 @@ def identify_methods(cfg: Mapping[str, Any], record: xr.Dataset,
     fs = float(record.attrs["sample_rate"])
     fs_id = float(s["sample_rate"])
     dt = 1.0 / fs_id
+    where, band = record_label(record), (s["frf"]["f_min"], s["frf"]["f_max"])
+    first = s["versions"][0]
+    ins = list(dict.fromkeys(n for p in s["pairings"] for n in p["inputs"]))
+    settle, notes = float(cfg["campaign"]["settle"]), {}
+    if validation is None:  # a bench record: its operating point ends where excitation starts
+        settle, notes["operating_point"] = _settle(record, removed, ins, first, settle, s)
     # each (record, version, signal) is conditioned once for all pairings and methods
-    grid = (fs, float(cfg["campaign"]["settle"]), fs_id, s["lowpass"])
+    grid = (fs, settle, fs_id, s["lowpass"])
     rec = ConditionedRecord(record, {v: tr for v, (tr, _) in removed.items()}, *grid)
     val = (None if validation is None else
            ConditionedRecord(validation, {v: tv for v, (_, tv) in removed.items()}, *grid))
+    hold = None
+    if val is None:  # the hold-out window where the inputs carry band power
+        offset = (len(decimation_filter(fs, fs_id, s["lowpass"])[0]) - 1) / fs
+        user = (None if validation_window is None else
+                (validation_window[0] - offset, validation_window[1] - offset))
+        hold = holdout_window(band_energy(rec(ins, first), fs_id, band), s["holdout"],
+                              s["holdout_power_min"], fs_id, user)
+        notes["validation_test"] = (
+            f"held out: {hold.start / fs_id + offset:.2f}-{hold.stop / fs_id + offset:.2f} s "
+            f"of the record ({100 * hold.power_share:.0f} % of the inputs' band power; "
+            f"{hold.source})")
+    min_len = 2 * (int(s["past"]) + int(s["future"]))
 
     rows = []  # (pairing, version, data, reference): what every method fits and is scored on
-    where, band = record_label(record), (s["frf"]["f_min"], s["frf"]["f_max"])
     for p in s["pairings"]:
         ref_truth = truth_reference(truth, p, record) if truth is not None else None
         # a mapped set-point of a closed-loop bench record: the nonparametric estimate
         # goes through it, free of the feedback's bias (its version is immaterial)
         r = rec(p["reference"], "raw") if "reference" in p else None
         # unusable signals are refused here, before any fit (checks.py)
-        first = s["versions"][0]
         check_signals(where, p["inputs"], rec(p["inputs"], first), "input", fs_id, band)
         check_signals(where, p["outputs"], rec(p["outputs"], first), "output", fs_id)
         if r is not None:
             check_signals(where, p["reference"], r, "reference", fs_id)
-        if r is not None and val is None:
-            r = holdout_split(r, s["holdout"])[0]
+        if r is not None and hold is not None:
+            r = fit_pieces(r, hold, min_len)
         for version in s["versions"]:
             u, y = rec(p["inputs"], version), rec(p["outputs"], version)
-            if val is None:
-                (u, uv), (y, yv) = holdout_split(u, s["holdout"]), holdout_split(y, s["holdout"])
+            if hold is not None:  # fit on the rest, in pieces (a multi-experiment fit)
+                uv, yv = u[hold.start:hold.stop], y[hold.start:hold.stop]
+                u, y = fit_pieces(u, hold, min_len), fit_pieces(y, hold, min_len)
             else:
                 uv, yv = val(p["inputs"], version), val(p["outputs"], version)
             ref = ref_truth or nonparametric_reference(u, y, fs_id, s, r)
@@ -202,8 +220,24 @@ def identify_methods(cfg: Mapping[str, Any], record: xr.Dataset,
         for method in methods:
             res = _identify_row(method, p, version, data, ref, dt, s_row)
             results[method].append({**res, "order_source": source})
-    return {method: _method_dataset(method, results[method], dt, s, record, validation)
+    return {method: _method_dataset(method, results[method], dt, s, record, validation, notes)
             for method in methods}
+
+
+def _settle(record: xr.Dataset, removed: Mapping[str, tuple[xr.Dataset, xr.Dataset | None]],
+            inputs: Sequence[str], version: str, settle: float,
+            s: Mapping[str, Any]) -> tuple[float, str]:
+    # the operating point of a bench record: the mean before its inputs' first excitation
+    # in the band (at most campaign.settle; at least 10 samples), and what it was
+    fs = float(record.attrs["sample_rate"])
+    x = np.column_stack(version_signals(record, inputs, version,
+                                        removed.get(version, (None, None))[0]))
+    onset = excitation_onset(x, fs, (s["frf"]["f_min"], s["frf"]["f_max"]),
+                             float(s["nonparametric"]["segment"]))
+    if 10 / fs <= onset < settle:
+        return onset, (f"mean over the first {onset:.3g} s, before the inputs' first "
+                       f"excitation in the band (campaign.settle {settle:g} s would include it)")
+    return settle, f"mean over the first {settle:g} s (campaign.settle)"
 
 
 def _identify_row(method: str, p: Mapping[str, Any], version: str,
@@ -229,13 +263,15 @@ def _identify_row(method: str, p: Mapping[str, Any], version: str,
 
 def _method_dataset(method: str, results: list[dict[str, Any]], dt: float,
                     s: Mapping[str, Any], record: xr.Dataset,
-                    validation: xr.Dataset | None) -> xr.Dataset:
+                    validation: xr.Dataset | None, notes: Mapping[str, str]) -> xr.Dataset:
     # the method's dataset from its rows; every row failed: StageError
     if all(r["status"] == "failed" for r in results):
         failures = "\n".join(f"  {r['pairing']}/{r['version']}: {r['reason']}" for r in results)
         raise StageError(f"identify {method} on {record_label(record)}: all {len(results)} "
                          f"identifications failed:\n{failures}")
-    return models_dataset(results, dt, method, s, record, validation)
+    ds = models_dataset(results, dt, method, s, record, validation)
+    ds.attrs.update(notes)  # a bench record's operating point and hold-out window
+    return ds
 
 
 def record_label(record: xr.Dataset) -> str:
