@@ -168,3 +168,47 @@ def test_failed_row_has_no_bandwidth_and_unknown_stability(cfg):
     assert set(ds.frf_unit.values) == {"(rad/s)/(N·m)"}
     assert ds.frf_identified_real.attrs["units"] == "(rad/s)/(N·m)"
     assert ds.D.attrs["long_name"].endswith("(estimated)") == bool(c["identify"]["feedthrough"])
+
+
+def _band_width(ds, key):
+    # median log-width of the stored 95 % bounds of the reference where it is assessable
+    sel = ds.sel(model=key)
+    ok = sel.assessable.values > 0.5
+    lo, hi = sel.frf_reference_lower.values[ok, 0, 0], sel.frf_reference_upper.values[ok, 0, 0]
+    return float(np.median(np.log(hi / lo)))
+
+
+def test_three_pooled_repeats_narrow_the_reference_bounds_by_sqrt3(cfg):
+    # three repeats of one test (seeded noise): the pooled job's nonparametric estimate has
+    # three times the averages, its bounds narrow as 1/sqrt(3); one multi-experiment model
+    c = _bench_cfg(cfg)
+    reps = [_bench_record(10 + k) for k in range(3)]
+    for k, r in enumerate(reps):
+        r.attrs.update(record=f"rep{k}", group="test7")
+    one = identify_record(c, reps[0], None, None, "pbsid")
+    pooled = identify_record(c, reps, None, None, "pbsid")
+    ratio = _band_width(one, "T_to_w/raw") / _band_width(pooled, "T_to_w/raw")
+    assert abs(ratio / np.sqrt(3) - 1) <= 0.2, ratio
+    assert pooled.attrs["test"] == "test7" and pooled.attrs["records"] == "rep0,rep1,rep2"
+    assert str(pooled.status.sel(model="T_to_w/raw").values) != "failed"
+
+
+def test_bench_record_with_a_quiet_end_is_validated_on_its_excitation(cfg):
+    # excitation only from 3 to 14 s of a 20 s record: the operating point is the mean
+    # before 3 s (not campaign.settle = 5 s); the held-out 5 s hold >= 20 % of the band
+    # power, so >= 0.2 x 11 s of the excitation (10 % slack: the floor, the filter edges)
+    c = _bench_cfg(cfg)
+    c["campaign"] = {"settle": 5.0}
+    rec = _bench_record(20)
+    t = rec.time.values
+    u = rec.torque.values - 500.0
+    quiet = (t < 3.0) | (t >= 14.0)
+    u[quiet] *= 1e-3
+    rec["torque"] = ("time", u + 500.0, {"units": "N m"})
+    ds = identify_record(c, rec, None, None, "pbsid")
+    assert "before the inputs' first excitation" in ds.attrs["operating_point"]
+    start, stop = (float(x) for x in ds.attrs["validation_test"].split()[2].split("-"))
+    assert stop - start == pytest.approx(5.0, abs=0.01), ds.attrs["validation_test"]
+    assert c["identify"]["holdout_power_min"] == 0.2
+    assert start >= 2.0 and min(stop, 14.0) - max(start, 3.0) >= 0.9 * 0.2 * 11.0, (
+        ds.attrs["validation_test"])

@@ -9,7 +9,6 @@ import pytest
 import xarray as xr
 
 from gbpipe.errors import DataError
-from gbpipe.identify import nonparametric_reference
 from gbpipe.identify.orders import row_order, stabilization_orders
 from gbpipe.identify.windows import band_energy, excitation_onset, holdout_window
 
@@ -65,35 +64,6 @@ def test_onset_is_before_the_first_burst_within_one_window(onset):
     x = _bursts(5, 30.0, [(onset, onset + 4.0), (15.0, 25.0)])
     got = excitation_onset(x, FS, BAND, 1.0)
     assert onset - 1.0 <= got <= onset
-
-
-def test_three_repeats_pooled_narrow_the_bounds_by_sqrt3():
-    # three repeats of one test (seeded noise) through a 40 Hz mode: the pooled
-    # nonparametric estimate has 3x the averages, so its 95 % bounds narrow as 1/sqrt(3)
-    from scipy import signal
-
-    w = 2 * np.pi * 40.0
-    a = np.array([[0.0, 1.0], [-w**2, -2 * 0.05 * w]])
-    sysd = signal.cont2discrete((a, np.array([[0.0], [w**2]]), np.array([[1.0, 0.0]]),
-                                 np.zeros((1, 1))), 1 / FS)
-    s = {"frf": {"f_min": 5.0, "f_max": 300.0},
-         "nonparametric": {"segment": 1.0, "coherence_min": 0.6}}
-    us, ys = [], []
-    for seed in range(3):
-        rng = np.random.default_rng(100 + seed)
-        u = rng.standard_normal(20000)
-        y = signal.dlsim((*sysd[:4], 1 / FS), u)[1][:, 0]
-        us.append(u[:, None])
-        ys.append((y + 0.3 * np.std(y) * rng.standard_normal(u.size))[:, None])
-    one = nonparametric_reference(us[0], ys[0], FS, s)
-    pooled = nonparametric_reference(us, ys, FS, s)
-
-    def width(ref):
-        ok = ref.assessable
-        return np.log(ref.upper[ok, 0, 0] / ref.lower[ok, 0, 0])
-
-    ratio = np.median(width(one)) / np.median(width(pooled))
-    assert abs(ratio / np.sqrt(3) - 1) <= 0.2, ratio
 
 
 def _modes(orders: np.ndarray, methods=("pbsid", "lscf"), pairings=("a", "b")) -> xr.Dataset:

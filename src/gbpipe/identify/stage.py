@@ -20,12 +20,13 @@ import numpy as np
 import xarray as xr
 
 from gbpipe.errors import StageError
+from gbpipe.identify.bench_data import bench_data, bench_sources
 from gbpipe.identify.checks import check_signals
 from gbpipe.identify.dataset import models_dataset
 from gbpipe.identify.fitting import METHODS, fit_model, fit_with_bounds, validation_fit
 from gbpipe.identify.metrics import identified_modes, match_modes
 from gbpipe.identify.orders import row_order
-from gbpipe.identify.prepare import ConditionedRecord, decimation_filter, version_signals
+from gbpipe.identify.prepare import ConditionedRecord
 from gbpipe.identify.reference import (
     Reference,
     nonparametric_reference,
@@ -34,7 +35,6 @@ from gbpipe.identify.reference import (
     within_reference,
 )
 from gbpipe.identify.status import assess, reference_growth_rate
-from gbpipe.identify.windows import band_energy, excitation_onset, fit_pieces, holdout_window
 from gbpipe.io import longest_segment
 
 __all__ = ["identify_methods", "identify_record", "record_label"]
@@ -51,10 +51,12 @@ def _fit_row(res: dict[str, Any], method: str, data: tuple[np.ndarray, ...], dt:
         m, lower_db, upper_db = fit_with_bounds(method, u, y, dt, s, ref.frequency)
     else:  # no bounds for this method (identify.bounds)
         m = fit_model(method, u, y, dt, s)
-        lower_db = upper_db = np.full((ref.frequency.size, yv.shape[1], uv.shape[1]), np.nan)
+        lower_db = upper_db = np.full((ref.frequency.size, m.C.shape[0], m.B.shape[1]), np.nan)
     g_id = m.frf(ref.frequency)
     err = within_reference(g_id, ref, s["tolerance_db"])
-    fit = validation_fit(m, uv, yv, int(round(s["fit_segment"] / dt)))
+    # the hold-out fit: mean over the held-out windows (one per record); NaN stays NaN
+    fit = np.mean([validation_fit(m, a, b, int(round(s["fit_segment"] / dt)))
+                   for a, b in zip(uv, yv, strict=True)], axis=0)
     fm_id, zm_id = identified_modes(m.A, dt, s["frf"]["f_max"], s["zeta_max"])
     tol = s["tolerance_db"]
     # where the reference cannot judge (an incoherent estimate) the error is NaN: those
@@ -87,13 +89,15 @@ def identify_record(cfg: Mapping[str, Any], record: xr.Dataset,
                             **kwargs)[method]
 
 
-def identify_methods(cfg: Mapping[str, Any], record: xr.Dataset,
+def identify_methods(cfg: Mapping[str, Any], record: xr.Dataset | Sequence[xr.Dataset],
                      validation: xr.Dataset | None, truth: xr.Dataset | None,
                      methods: Sequence[str],
                      removed: Mapping[str, tuple[xr.Dataset, xr.Dataset | None]]
-                     | None = None, orders: Mapping[str, int] | None = None,
+                     | Sequence[Mapping[str, tuple[xr.Dataset, None]]] | None = None,
+                     orders: Mapping[str, int] | None = None,
                      order_source: Mapping[str, str] | None = None,
-                     validation_window: tuple[float, float] | None = None
+                     validation_window: tuple[float, float]
+                     | Sequence[tuple[float, float] | None] | None = None
                      ) -> dict[str, xr.Dataset]:
     """Identify every configured pairing x data version of one record with each method.
 
@@ -101,9 +105,12 @@ def identify_methods(cfg: Mapping[str, Any], record: xr.Dataset,
     ----------
     cfg : mapping
         Validated configuration slice: ``campaign.settle`` and the ``identify`` section.
-    record : xarray.Dataset
+    record : xarray.Dataset or sequence of xarray.Dataset
         The record identified: simulated (:func:`gbpipe.simulate.test`) or measured
-        (:func:`gbpipe.measured.read`).
+        (:func:`gbpipe.measured.read`); or the repeats of one bench test (``group:`` in
+        ``measured:``, their ``group`` attribute names the output), pooled: one
+        nonparametric estimate with every record's averages and one multi-experiment
+        model (:mod:`gbpipe.identify.bench_data`).
     validation : xarray.Dataset or None
         The record the fit % is computed on (never used for fitting). None: a window of
         ``record`` is held out instead (``validation_window``).
@@ -117,14 +124,15 @@ def identify_methods(cfg: Mapping[str, Any], record: xr.Dataset,
         Per harmonic-removal version (``tsa``, ``vkf``, ...): the record and the
         validation record after that removal (``removal_tests``
         outputs; the second None without a validation record). Required for every
-        version in ``identify.versions`` but ``clean`` and ``raw``.
+        version in ``identify.versions`` but ``clean`` and ``raw``. Pooled records: one
+        such mapping per record.
     orders : mapping str -> int, optional
         Model order per pairing name (e.g. from the record's stabilization diagram:
         :func:`gbpipe.identify.orders.stabilization_orders`); a pairing absent from it is
         fitted with ``identify.order`` (``stabilization`` without an order: ``auto``).
     order_source : mapping str -> str, optional
         Where each order of ``orders`` came from (stored per model as ``order_source``).
-    validation_window : (float, float), optional
+    validation_window : (float, float), or a sequence of them (or None) per pooled record
         Without ``validation``: the held-out ``start, end`` [s from the record start]
         (``measured.<record>.validation``); default: the latest ``identify.holdout`` of
         the record holding ``identify.holdout_power_min`` of the inputs' band power
@@ -150,64 +158,71 @@ def identify_methods(cfg: Mapping[str, Any], record: xr.Dataset,
         Every row of a method failed (the message lists each failure).
     """
     s = cfg["identify"]
-    record = longest_segment(record)  # a split bench record: its longest piece
+    pooled = not isinstance(record, xr.Dataset)
+    records = [longest_segment(r) for r in (record if pooled else [record])]
+    # a split bench record: its longest piece
     for method in methods:
         if method not in METHODS:
             raise ValueError(f"unknown method {method!r}; use {', '.join(METHODS)}")
-    removed = dict(removed or {})
+    if pooled and (validation is not None or truth is not None):
+        raise ValueError("pooled records are bench records: no validation record, no truth")
+    removed_all = [dict(r) for r in (removed or [{}] * len(records))] if pooled else \
+        [dict(removed or {})]
     for version in s["versions"]:
         if version in ("clean", "raw"):
             continue
-        if version not in removed or (validation is not None and removed[version][1] is None):
+        if any(version not in rem or (validation is not None and rem[version][1] is None)
+               for rem in removed_all):
             raise ValueError(f"version {version!r} needs the record and validation record "
                              f"after that harmonic removal (removed[{version!r}])")
-    fs = float(record.attrs["sample_rate"])
     fs_id = float(s["sample_rate"])
     dt = 1.0 / fs_id
-    where, band = record_label(record), (s["frf"]["f_min"], s["frf"]["f_max"])
-    first = s["versions"][0]
-    ins = list(dict.fromkeys(n for p in s["pairings"] for n in p["inputs"]))
-    settle, notes = float(cfg["campaign"]["settle"]), {}
-    if validation is None:  # a bench record: its operating point ends where excitation starts
-        settle, notes["operating_point"] = _settle(record, removed, ins, first, settle, s)
-    # each (record, version, signal) is conditioned once for all pairings and methods
-    grid = (fs, settle, fs_id, s["lowpass"])
-    rec = ConditionedRecord(record, {v: tr for v, (tr, _) in removed.items()}, *grid)
-    val = (None if validation is None else
-           ConditionedRecord(validation, {v: tv for v, (_, tv) in removed.items()}, *grid))
-    hold = None
-    if val is None:  # the hold-out window where the inputs carry band power
-        offset = (len(decimation_filter(fs, fs_id, s["lowpass"])[0]) - 1) / fs
-        user = (None if validation_window is None else
-                (validation_window[0] - offset, validation_window[1] - offset))
-        hold = holdout_window(band_energy(rec(ins, first), fs_id, band), s["holdout"],
-                              s["holdout_power_min"], fs_id, user)
-        notes["validation_test"] = (
-            f"held out: {hold.start / fs_id + offset:.2f}-{hold.stop / fs_id + offset:.2f} s "
-            f"of the record ({100 * hold.power_share:.0f} % of the inputs' band power; "
-            f"{hold.source})")
+    where, band = _label(records), (s["frf"]["f_min"], s["frf"]["f_max"])
+    first, settle = s["versions"][0], float(cfg["campaign"]["settle"])
+    grid = (float(records[0].attrs["sample_rate"]), settle, fs_id, s["lowpass"])
+    notes: dict[str, str] = {}
+    sources = None
+    if validation is None:  # bench records: operating point and hold-out from their data
+        wins = (list(validation_window or [None] * len(records)) if pooled
+                else [validation_window])
+        sources = bench_sources(records, [{v: tr for v, (tr, _) in rem.items()}
+                                          for rem in removed_all], settle, s, wins)
+        for key in ("operating_point", "validation_test"):
+            notes[key] = "; ".join(f"{src.name}: {src.notes[key]}" if pooled
+                                   else src.notes[key] for src in sources)
+        if pooled:
+            notes["records"] = ",".join(src.name for src in sources)
+        conditioned = [src.rec for src in sources]
+    else:  # each (record, version, signal) is conditioned once for all pairings and methods
+        rem = removed_all[0]
+        conditioned = [ConditionedRecord(records[0], {v: tr for v, (tr, _) in rem.items()},
+                                         *grid)]
+        val = ConditionedRecord(validation, {v: tv for v, (_, tv) in rem.items()}, *grid)
     min_len = 2 * (int(s["past"]) + int(s["future"]))
 
     rows = []  # (pairing, version, data, reference): what every method fits and is scored on
     for p in s["pairings"]:
-        ref_truth = truth_reference(truth, p, record) if truth is not None else None
+        ref_truth = truth_reference(truth, p, records[0]) if truth is not None else None
+        # unusable signals are refused here, before any fit (checks.py)
+        for rec in conditioned:
+            check_signals(where, p["inputs"], rec(p["inputs"], first), "input", fs_id, band)
+            check_signals(where, p["outputs"], rec(p["outputs"], first), "output", fs_id)
+            if "reference" in p:
+                check_signals(where, p["reference"], rec(p["reference"], "raw"),
+                              "reference", fs_id)
         # a mapped set-point of a closed-loop bench record: the nonparametric estimate
         # goes through it, free of the feedback's bias (its version is immaterial)
-        r = rec(p["reference"], "raw") if "reference" in p else None
-        # unusable signals are refused here, before any fit (checks.py)
-        check_signals(where, p["inputs"], rec(p["inputs"], first), "input", fs_id, band)
-        check_signals(where, p["outputs"], rec(p["outputs"], first), "output", fs_id)
-        if r is not None:
-            check_signals(where, p["reference"], r, "reference", fs_id)
-        if r is not None and hold is not None:
-            r = fit_pieces(r, hold, min_len)
+        r = None
+        if "reference" in p:
+            r = (bench_data(sources, p["reference"], "raw", min_len)[0] if sources
+                 else conditioned[0](p["reference"], "raw"))
         for version in s["versions"]:
-            u, y = rec(p["inputs"], version), rec(p["outputs"], version)
-            if hold is not None:  # fit on the rest, in pieces (a multi-experiment fit)
-                uv, yv = u[hold.start:hold.stop], y[hold.start:hold.stop]
-                u, y = fit_pieces(u, hold, min_len), fit_pieces(y, hold, min_len)
+            if sources:  # fit on the rest of every record, in pieces (multi-experiment)
+                u, uv = bench_data(sources, p["inputs"], version, min_len)
+                y, yv = bench_data(sources, p["outputs"], version, min_len)
             else:
-                uv, yv = val(p["inputs"], version), val(p["outputs"], version)
+                u, y = conditioned[0](p["inputs"], version), conditioned[0](p["outputs"], version)
+                uv, yv = [val(p["inputs"], version)], [val(p["outputs"], version)]
             ref = ref_truth or nonparametric_reference(u, y, fs_id, s, r)
             rows.append((p, version, (u, y, uv, yv), ref))
 
@@ -220,24 +235,8 @@ def identify_methods(cfg: Mapping[str, Any], record: xr.Dataset,
         for method in methods:
             res = _identify_row(method, p, version, data, ref, dt, s_row)
             results[method].append({**res, "order_source": source})
-    return {method: _method_dataset(method, results[method], dt, s, record, validation, notes)
+    return {method: _method_dataset(method, results[method], dt, s, records, validation, notes)
             for method in methods}
-
-
-def _settle(record: xr.Dataset, removed: Mapping[str, tuple[xr.Dataset, xr.Dataset | None]],
-            inputs: Sequence[str], version: str, settle: float,
-            s: Mapping[str, Any]) -> tuple[float, str]:
-    # the operating point of a bench record: the mean before its inputs' first excitation
-    # in the band (at most campaign.settle; at least 10 samples), and what it was
-    fs = float(record.attrs["sample_rate"])
-    x = np.column_stack(version_signals(record, inputs, version,
-                                        removed.get(version, (None, None))[0]))
-    onset = excitation_onset(x, fs, (s["frf"]["f_min"], s["frf"]["f_max"]),
-                             float(s["nonparametric"]["segment"]))
-    if 10 / fs <= onset < settle:
-        return onset, (f"mean over the first {onset:.3g} s, before the inputs' first "
-                       f"excitation in the band (campaign.settle {settle:g} s would include it)")
-    return settle, f"mean over the first {settle:g} s (campaign.settle)"
 
 
 def _identify_row(method: str, p: Mapping[str, Any], version: str,
@@ -262,16 +261,26 @@ def _identify_row(method: str, p: Mapping[str, Any], version: str,
 
 
 def _method_dataset(method: str, results: list[dict[str, Any]], dt: float,
-                    s: Mapping[str, Any], record: xr.Dataset,
+                    s: Mapping[str, Any], records: Sequence[xr.Dataset],
                     validation: xr.Dataset | None, notes: Mapping[str, str]) -> xr.Dataset:
     # the method's dataset from its rows; every row failed: StageError
     if all(r["status"] == "failed" for r in results):
         failures = "\n".join(f"  {r['pairing']}/{r['version']}: {r['reason']}" for r in results)
-        raise StageError(f"identify {method} on {record_label(record)}: all {len(results)} "
+        raise StageError(f"identify {method} on {_label(records)}: all {len(results)} "
                          f"identifications failed:\n{failures}")
-    ds = models_dataset(results, dt, method, s, record, validation)
-    ds.attrs.update(notes)  # a bench record's operating point and hold-out window
+    ds = models_dataset(results, dt, method, s, records[0], validation)
+    ds.attrs.update(notes)  # bench records: operating point, hold-out window, records
+    if len(records) > 1:  # pooled repeats: the file is named by their group
+        ds.attrs["test"] = str(records[0].attrs.get("group", ds.attrs["test"]))
     return ds
+
+
+def _label(records: Sequence[xr.Dataset]) -> str:
+    # one record's label, or the pooled group's with its records
+    if len(records) == 1:
+        return record_label(records[0])
+    names = ", ".join(str(r.attrs.get("record", "?")) for r in records)
+    return f"group {records[0].attrs.get('group', '?')} (records {names})"
 
 
 def record_label(record: xr.Dataset) -> str:
