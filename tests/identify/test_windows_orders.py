@@ -91,3 +91,18 @@ def test_orders_come_from_the_stabilization_result_with_their_source():
 def test_unusable_stabilization_orders_are_refused(value, pairings, what):
     with pytest.raises(DataError, match=what):
         stabilization_orders(_modes(value), "pbsid", pairings, "run12.nc")
+
+
+def test_measured_record_takes_a_validation_window_and_a_group():
+    from gbpipe.errors import ConfigError
+    from gbpipe.measured import parse
+
+    base = {"files": {"f": {"path": "x.csv", "time": "t"}}, "sample_rate": 1000.0,
+            "signals": {"torque": {"file": "f", "channel": "T"}}}
+    spec = parse({**base, "validation": {"start": 12, "end": 20.5}, "group": "test7"}, "r1")
+    assert spec.validation == (12.0, 20.5) and spec.group == "test7"
+    assert parse(base, "r2").validation is None and parse(base, "r2").group is None
+    with pytest.raises(ConfigError, match=r"measured.r3.validation.*start < end"):
+        parse({**base, "validation": {"start": 20, "end": 12}}, "r3")
+    with pytest.raises(ConfigError, match=r"measured.r4.validation.*needs both"):
+        parse({**base, "validation": {"start": 2}}, "r4")
