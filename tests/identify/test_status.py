@@ -164,6 +164,7 @@ def test_failed_row_has_no_bandwidth_and_unknown_stability(cfg):
     rows = {r["pairing"]: r for r in table_rows([ds])}
     assert rows["T_to_w2"]["stable"] == "unknown" and np.isnan(rows["T_to_w2"]["achieved_hz"])
     assert rows["T_to_w2"]["status"] == "failed" and rows["T_to_w2"]["reason"]
+    assert np.isnan(rows["T_to_w2"]["within_tol_pct"])
     # units: (rad/s)/(N·m) per model and for the file (all models share it)
     assert set(ds.frf_unit.values) == {"(rad/s)/(N·m)"}
     assert ds.frf_identified_real.attrs["units"] == "(rad/s)/(N·m)"

@@ -81,7 +81,9 @@ def test_orders_come_from_the_stabilization_result_with_their_source():
     assert orders == {"a": 12} and "method=pbsid" in prov["a"]
     s = {"order": "stabilization", "max_order": 26}
     assert row_order(s, "a", orders, prov) == (12, prov["a"])
-    assert row_order(s, "c", orders, prov)[0] == "auto"  # no diagram for it: says so
+    # no diagram for it: the bound on the order, and it says so
+    order, why = row_order(s, "c", orders, prov)
+    assert order == 26 and "no stabilization diagram" in why
     assert row_order({"order": 24, "max_order": 26}, "a", None) == (24, "identify.order = 24")
 
 

@@ -76,15 +76,18 @@ def row_order(s: Mapping[str, Any], pairing: str,
     """The order one pairing is fitted with (an integer or ``"auto"``) and its source.
 
     ``orders`` (from :func:`stabilization_orders`) wins over ``identify.order`` when it
-    names the pairing; ``stabilization`` without them falls back to ``auto`` and says so.
+    names the pairing; ``stabilization`` without them falls back to ``identify.max_order``
+    and says so.
     """
     if orders is not None and pairing in orders:
         src = (provenance or {}).get(pairing, "orders given to identify_methods")
         return int(orders[pairing]), src
     order = s["order"]
     if order == "stabilization":
-        return "auto", ("auto from the singular values (identify.order: stabilization, "
-                        "but no stabilization diagram was given)")
+        # no diagram: the bound on the bench's states in the band, not "auto", whose
+        # singular values pick orders of 1-4 on bench-like records (docs/identify.md)
+        return int(s["max_order"]), (f"identify.max_order = {s['max_order']} (identify.order: "
+                                     "stabilization, but no stabilization diagram was given)")
     if order == "auto":
         return "auto", f"auto from the singular values (at most {s['max_order']})"
     return int(order), f"identify.order = {order}"

@@ -94,7 +94,9 @@ def table_rows(datasets: Sequence[xr.Dataset],
                 "element_bandwidth_hz": ";".join(
                     f"{SHORT.get(outs[o], outs[o])}<-{SHORT.get(ins[i], ins[i])}:"
                     f"{ebw[o, i]:.4g}" for o in range(ny) for i in range(nu)),
-                "within_tol_pct": _within_pct(sel, ny, nu, ds.attrs["tolerance_db"]),
+                # a failed row claims no share either (its model, if any, is unusable)
+                "within_tol_pct": (float("nan") if str(sel.status.values) == "failed"
+                                   else _within_pct(sel, ny, nu, ds.attrs["tolerance_db"])),
                 "fit_pct": float(np.mean(fit)) if np.all(np.isfinite(fit)) else float("nan"),
                 "fit_min_pct": float(np.min(fit)) if np.all(np.isfinite(fit)) else float("nan"),
                 # the status's criterion (gbpipe.identify.status); unknown without a model
