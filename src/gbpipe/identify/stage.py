@@ -159,8 +159,8 @@ def identify_methods(cfg: Mapping[str, Any], record: xr.Dataset | Sequence[xr.Da
     """
     s = cfg["identify"]
     pooled = not isinstance(record, xr.Dataset)
-    records = [longest_segment(r) for r in (record if pooled else [record])]
     # a split bench record: its longest piece
+    records = [longest_segment(r) for r in (record if pooled else [record])]
     for method in methods:
         if method not in METHODS:
             raise ValueError(f"unknown method {method!r}; use {', '.join(METHODS)}")

@@ -8,10 +8,13 @@ both are read from the record's inputs, in the identified band (``identify.frf``
 * :func:`excitation_onset`: the first moment the inputs carry band power, from a running
   band-power envelope; the operating point is the mean *before* it (at most
   ``campaign.settle``);
-* :func:`holdout_window`: a window of ``identify.holdout`` of the record that holds at
-  least ``identify.holdout_power_min`` of the inputs' band power, the latest such window
-  (the record's end when it qualifies, as before); the fit uses the rest, in pieces
-  (a multi-experiment fit: :mod:`gbpipe.sysid` takes lists of records).
+* :func:`holdout_window`: a window of ``identify.holdout`` of the record whose mean band
+  power of the inputs is at least ``identify.holdout_power_min`` (0.1: -10 dB) of the
+  record's mean, the latest such window (the record's end when it qualifies, as before);
+  the fit uses the rest, in pieces (a multi-experiment fit: :mod:`gbpipe.sysid` takes
+  lists of records). Relative to the mean, not a share of the total: a record whose band
+  power sits in a few torque steps keeps its excited end (holding the floor of random
+  excitation) rather than losing a step to the hold-out.
 
 Either can be set per record instead (``measured.<record>.validation: {start, end}`` [s]).
 """
@@ -94,8 +97,9 @@ def holdout_window(energy: np.ndarray, share: float, power_min: float, fs: float
     share : float
         Window length as a share of the record (``identify.holdout``) [-].
     power_min : float
-        Least share of the band energy the window must hold
-        (``identify.holdout_power_min``) [-].
+        Least mean band power of the window relative to the record's mean
+        (``identify.holdout_power_min``) [-]: the window holds at least
+        ``power_min * share`` of the band energy.
     fs : float
         Sample rate of ``energy`` [Hz].
     user : (float, float), optional
@@ -105,8 +109,8 @@ def holdout_window(energy: np.ndarray, share: float, power_min: float, fs: float
     Returns
     -------
     Holdout
-        The latest window of ``share`` that holds ``power_min``; if none does, the one
-        holding the most (its ``source`` says it falls short).
+        The latest window of ``share`` that holds ``power_min * share`` of the band energy;
+        if none does, the one holding the most (its ``source`` says it falls short).
     """
     n = energy.size
     cum = np.concatenate([[0.0], np.cumsum(energy)])
@@ -118,16 +122,16 @@ def holdout_window(energy: np.ndarray, share: float, power_min: float, fs: float
                        f"measured.<record>.validation: {user[0]:g}-{user[1]:g} s")
     n_val = int(round(share * n))
     held = (cum[n_val:] - cum[:n - n_val + 1]) / total  # window starting at each sample
-    ok = np.flatnonzero(held >= power_min)
+    ok = np.flatnonzero(held >= power_min * n_val / n)
     if ok.size:
         k = int(ok[-1])
         return Holdout(k, k + n_val, float(held[k]),
-                       f"the latest {share:g} of the record holding >= {power_min:g} of the "
-                       "inputs' band power")
+                       f"the latest {share:g} of the record whose inputs' band power is >= "
+                       f"{power_min:g} of the record's mean")
     k = int(np.argmax(held))
     return Holdout(k, k + n_val, float(held[k]),
-                   f"no {share:g} of the record holds {power_min:g} of the inputs' band "
-                   f"power: the window holding the most ({held[k]:.3g})")
+                   f"no {share:g} of the record reaches {power_min:g} of the inputs' mean "
+                   f"band power: the window holding the most ({held[k]:.3g} of it)")
 
 
 def fit_pieces(x: np.ndarray, hold: Holdout, min_len: int) -> list[np.ndarray]:
