@@ -292,9 +292,12 @@ def test_table_reports_the_chosen_order_and_independent_scores(synthetic_job):
     assert ds.attrs["order_setting"] == "24" and ds.attrs["max_order"] >= 1
     # the fit of a noise-free open-loop model on another record is near perfect
     assert mimo["fit_pct"] > 95.0
-    # stability from the stored A by an independent eigenvalue computation
+    # stability from the stored A by an independent eigenvalue computation: no pole grows
+    # by more than x2 within a validation segment (the open-loop truth has no growing mode)
     A = model_matrices(ds, "mimo/clean")[0]
-    assert mimo["stable"] == bool(np.all(np.abs(np.linalg.eigvals(A)) < 1.0))
+    growth = np.max(np.abs(np.linalg.eigvals(A))) ** (c["identify"]["fit_segment"]
+                                                      / float(ds.sample_time))
+    assert mimo["stable"] == bool(growth <= 2.0)
 
 
 def test_auto_order_is_bounded_and_recorded(cfg):

@@ -69,7 +69,7 @@ def test_torque_meter_pairings_are_identified_in_n_m_per_n_m(job, cfg):
     for p in PAIRINGS:
         key = f"{p['name']}/clean"
         assert str(ds.status.sel(model=key).values) == "ok"
-        assert str(ds.frf_unit.sel(model=key).values) == "1"
+        assert str(ds.frf_unit.sel(model=key).values) == "N·m/N·m"
         A, B, C, D = model_matrices(ds, key)
         dt = float(ds.sample_time)
         g_id = np.array([C @ np.linalg.solve(np.exp(2j * np.pi * fk * dt) * np.eye(len(A))

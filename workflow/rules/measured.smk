@@ -7,6 +7,11 @@ import gbpipe.config
 MEASURED = list(config["measured"])
 # the records' mappings, parsed (and checked) once at load
 SPECS = gbpipe.config.measured_specs(config)
+# repeats of one test (`group:`), identified pooled besides each record alone
+GROUPS = {}
+for _name, _spec in SPECS.items():
+    if _spec.group is not None:
+        GROUPS.setdefault(_spec.group, []).append(_name)
 
 
 def _bench_files(w):
@@ -19,8 +24,22 @@ def _has_tacho(record):
 
 
 def _measured_identify_jobs():
-    return expand(f"{RESULTS}/identify/measured/{{record}}_{{method}}.nc", record=MEASURED,
-                  method=config["identify"]["methods"])
+    # every record alone, and every group of repeats pooled
+    return expand(f"{RESULTS}/identify/measured/{{record}}_{{method}}.nc",
+                  record=MEASURED + list(GROUPS), method=config["identify"]["methods"])
+
+
+def _unit_records(w):
+    # the records an identify_measured job pools: a group's repeats, or the record itself
+    return GROUPS.get(w.record, [w.record])
+
+
+def _stabilization(w):
+    # identify.order: stabilization takes the orders from the record's stabilization
+    # diagram (rule modes_measured; a group: its first record's) when that rule exists
+    if config["identify"]["order"] != "stabilization" or not workflow.is_rule("modes_measured"):
+        return []
+    return [f"{RESULTS}/modes/measured/{_unit_records(w)[0]}.nc"]
 
 
 def measured_targets():
@@ -36,7 +55,7 @@ def measured_targets():
 
 
 wildcard_constraints:
-    record="|".join(MEASURED) if MEASURED else "no_measured_record",
+    record="|".join(MEASURED + list(GROUPS)) if MEASURED else "no_measured_record",
 
 
 rule measured:
@@ -110,20 +129,25 @@ rule tsa_measured:
 
 rule identify_measured:
     message:
-        "Identify {wildcards.method} on bench record {wildcards.record}: every pairing x "
-        "data version vs the nonparametric FRF of the data"
+        "Identify {wildcards.method} on bench record (or group of repeats) "
+        "{wildcards.record}: every pairing x data version vs the nonparametric FRF of the data"
     wildcard_constraints:
         method="pbsid|moesp|n4sid",
     input:
-        record=rules.measured.output.record,
-        tsa_record=lambda w: ([f"{RESULTS}/tsa/measured/{w.record}.nc"]
-                              if "tsa" in config["identify"]["versions"] else []),
+        # one record, or every repeat of a group (pooled)
+        records=lambda w: [f"{RESULTS}/measured/{r}.nc" for r in _unit_records(w)],
+        tsa_records=lambda w: ([f"{RESULTS}/tsa/measured/{r}.nc" for r in _unit_records(w)]
+                               if "tsa" in config["identify"]["versions"] else []),
+        modes=_stabilization,
         code=code("identify_measured.py"),
     params:
         # tests, profiles and best.* are of the simulated campaign: not this job's
         cfg=lambda w: {"campaign": {"settle": config["campaign"]["settle"]},
                        "identify": {k: v for k, v in config["identify"].items()
                                     if k not in ("tests", "profiles", "best")}},
+        # measured.<record>.validation: the held-out window [s] per record (None: chosen)
+        windows=lambda w: [SPECS[r].validation for r in _unit_records(w)],
+        group=lambda w: w.record if w.record in GROUPS else "",
     output:
         nc=f"{RESULTS}/identify/measured/{{record}}_{{method}}.nc",
     log:

@@ -1,14 +1,32 @@
-"""Rule `identify_measured`: every pairing x data version of one bench record, one method,
-scored against the nonparametric FRF of the data (no true model exists)."""
+"""Rule `identify_measured`: every pairing x data version of one bench record (or of the
+pooled repeats of one test), one method, scored against the nonparametric FRF of the data
+(no true model exists)."""
+
+from pathlib import Path
 
 from gbpipe import io
 from gbpipe.identify import identify_record
+from gbpipe.identify.orders import stabilization_orders
 
 snakemake = globals()["snakemake"]
 log = io.setup_log(snakemake.log[0])
-w, cfg, i = snakemake.wildcards, snakemake.params.cfg, snakemake.input
-removed = {"tsa": (io.read(i.tsa_record[0]), None)} if i.tsa_record else {}
-ds = identify_record(cfg, io.read(i.record), None, None, w.method, removed)
+w, cfg, i, par = snakemake.wildcards, snakemake.params.cfg, snakemake.input, snakemake.params
+records = [io.read(p) for p in i.records]
+removed = [{"tsa": (io.read(p), None)} for p in i.tsa_records] or [{} for _ in records]
+orders = provenance = None
+if i.modes:  # identify.order: stabilization, from rule modes_measured
+    orders, provenance = stabilization_orders(
+        io.read(i.modes[0]), w.method, [p["name"] for p in cfg["identify"]["pairings"]],
+        Path(i.modes[0]).name)
+windows = [tuple(x) if x is not None else None for x in par.windows]
+if par.group:  # the repeats of one test, pooled
+    for rec in records:
+        rec.attrs["group"] = par.group
+    ds = identify_record(cfg, records, None, None, w.method, removed, orders=orders,
+                         order_source=provenance, validation_window=windows)
+else:
+    ds = identify_record(cfg, records[0], None, None, w.method, removed[0], orders=orders,
+                         order_source=provenance, validation_window=windows[0])
 io.write(ds, snakemake.output.nc, sources=snakemake.input, stage="identify_measured",
          config=cfg, wildcards={"record": w.record, "method": w.method},
          title=f"{w.method} models of bench record {w.record} vs its nonparametric FRF")

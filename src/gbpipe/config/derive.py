@@ -12,7 +12,9 @@ configuration and are filled in after the schema (only where the key is absent):
 * ``identify.best`` ← the first configured test, profile, pairing and version;
 * ``identify.max_order`` ← :func:`gbpipe.config.bounds.order_bound` (the bench's states in
   the identified band);
-* ``identify.order: model`` (the default) ← :func:`gbpipe.config.bounds.plant_order`, the
+* ``identify.order`` ← ``stabilization`` with ``measured:`` records (the order per
+  pairing from each record's stabilization diagram), else ``model``;
+  ``identify.order: model`` ← :func:`gbpipe.config.bounds.plant_order`, the
   states of the configured open-loop bench in the identified band (24 for the paper's
   bench), so the order follows the gearbox.
 
@@ -113,6 +115,9 @@ def derive(cfg: dict[str, Any], order_bound: Callable[[Mapping[str, Any]], int],
           ("fit",), derived)
     if "max_order" not in idc:
         _fill(idc, "max_order", order_bound(cfg), ("identify",), derived)
+    # measured records: the order per pairing from their stabilization diagrams; the
+    # simulated campaign: the configured bench's states in the band
+    _fill(idc, "order", "stabilization" if cfg["measured"] else "model", ("identify",), derived)
     if idc["order"] == "model":
         idc["order"] = plant_order(cfg)
         derived.add(("identify", "order"))

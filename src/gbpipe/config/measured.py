@@ -70,6 +70,10 @@ def check_measured(cfg: Mapping[str, Any]) -> None:
         raise ConfigError("identify.versions", "'clean' exists only for simulated records; "
                           "measured records have [raw, tsa]")
     _check_signals(cfg, specs)
+    for rec, spec in specs.items():  # a group's identify output is named by the group
+        if spec.group in specs:
+            raise ConfigError(f"measured.{rec}.group", f"'{spec.group}' is also a record's "
+                              "name; name the group of repeats differently")
     fs_id = float(idc["sample_rate"])
     for rec, spec in specs.items():
         ratio = spec.sample_rate / fs_id

@@ -73,7 +73,8 @@ def measured_identification_figure(datasets: Sequence[xr.Dataset], record: str,
             method = ds.attrs["method"]
             for k in np.flatnonzero(ds.pairing.values == pairing):
                 m = ds.isel(model=int(k))
-                if str(m.status.values) != "ok":
+                status = str(m.status.values)
+                if status == "failed":  # no model (its reason is in the table)
                     continue
                 version = str(m.version.values)
                 bw = float(m.match_bandwidth)
@@ -82,8 +83,8 @@ def measured_identification_figure(datasets: Sequence[xr.Dataset], record: str,
                 ax.semilogx(f, _db(s.frf_identified_real.values
                                    + 1j * s.frf_identified_imag.values),
                             color=_COLORS.get(method), ls=_STYLES.get(version, "-"), lw=1.0,
-                            label=f"{method.upper()} {version} (order {int(m.order)}): "
-                                  f"{bw:.0f} Hz")
+                            label=f"{method.upper()} {version} (order {int(m.order)}, "
+                                  f"{status}): {bw:.0f} Hz")
         ax.set_title(f"{pairing}: {record}")
         ax.set_ylabel(f"|G| [dB re 1 {first.frf_unit.values}]")
         ax.legend(fontsize=6, loc="lower left")
@@ -96,7 +97,8 @@ def measured_identification_figure(datasets: Sequence[xr.Dataset], record: str,
                   "extension (identification where no truth is known)",
                   "Black: nonparametric FRF of the conditioned data (Welch); red: its 95 % "
                   "bounds where it is coherent, the only frequencies where a model is judged. "
-                  "Coloured: the subspace models per method (dashed raw, dotted after TSA). "
+                  "Coloured: the subspace models per method (dashed raw, dotted after TSA), "
+                  "ok or poor (status in the legend; failed ones are not drawn). "
                   "Match bandwidth: highest frequency up to which a model stays within the "
                   "tolerance or inside the bounds.",
                   {**{f"coherent share {p}": f"{v:.0f} % of the band" for p, v in share.items()},

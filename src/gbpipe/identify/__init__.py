@@ -63,14 +63,13 @@ from gbpipe.identify.reference import (
     within_reference,
 )
 from gbpipe.identify.stage import (
-    holdout_split,
     identify_methods,
     identify_record,
     record_label,
 )
 from gbpipe.identify.table import SHORT, best_pairings, table_rows
 
-__all__ = ["identify_methods", "identify_record", "holdout_split", "record_label", "Reference",
+__all__ = ["identify_methods", "identify_record", "record_label", "Reference",
            "truth_reference", "nonparametric_reference", "within_reference", "table_rows",
            "best_pairings", "models_dataset",
            "model_matrices", "fit_model", "validation_fit", "reflect_out_of_band",

@@ -23,10 +23,11 @@ MODE_TOLERANCE = 0.02
 
 
 #: Mixed units of the identified matrices (``comment`` attribute).
-_MAT_NOTE = ("mixed units: state in identified coordinates; inputs in N m, outputs in rad/s, "
-             "at the identification sample time")
+_MAT_NOTE = ("mixed units: state in identified coordinates; inputs and outputs in the units "
+             "of the pairing's signals (frf_unit), at the identification sample time")
 _FRF = ("model", "frequency", "output", "input")
-_FRF_UNITS = "rad s-1 N-1 m-1"
+#: ``units`` of FRF arrays whose models have different units (``frf_unit`` per model).
+_FRF_MIXED = "mixed (see frf_unit)"
 
 #: The float variables of :func:`models_dataset`: (variable, key of its padded array,
 #: dimensions, units, long name, comment or None), in file order.
@@ -35,16 +36,15 @@ _ARRAYS: tuple[tuple[str, str, tuple[str, ...], str, str, str | None], ...] = (
      "identified discrete-time state matrix A", None),
     ("B", "B", ("model", "state", "input"), "1", "identified input matrix B", _MAT_NOTE),
     ("C", "C", ("model", "output", "state"), "1", "identified output matrix C", _MAT_NOTE),
-    ("D", "D", ("model", "output", "input"), "1", "identified feedthrough matrix D (fixed 0)",
-     _MAT_NOTE),
+    ("D", "D", ("model", "output", "input"), "1", "identified feedthrough matrix D", _MAT_NOTE),
     ("K", "K", ("model", "state", "output"), "1", "identified innovation (Kalman) gain K",
      _MAT_NOTE),
     ("noise_cov", "noise_cov", ("model", "output", "output_col"), "1",
      "innovation covariance", "output units squared, (rad/s)^2"),
     ("singular_values", "sv", ("model", "sv_index"), "1",
      "singular values of the order decision (scaled data)", None),
-    ("frf_identified_real", "frf_re", _FRF, _FRF_UNITS, "identified FRF, real part", None),
-    ("frf_identified_imag", "frf_im", _FRF, _FRF_UNITS, "identified FRF, imaginary part",
+    ("frf_identified_real", "frf_re", _FRF, _FRF_MIXED, "identified FRF, real part", None),
+    ("frf_identified_imag", "frf_im", _FRF, _FRF_MIXED, "identified FRF, imaginary part",
      None),
     ("frf_identified_lower_db", "frf_lo", _FRF, "dB",
      "lower bound of the identified FRF magnitude (20 log10 |G|; jackknife over record "
@@ -52,13 +52,13 @@ _ARRAYS: tuple[tuple[str, str, tuple[str, ...], str, str, str | None], ...] = (
     ("frf_identified_upper_db", "frf_hi", _FRF, "dB",
      "upper bound of the identified FRF magnitude (20 log10 |G|; jackknife over record "
      "groups, see the bounds_confidence attribute)", None),
-    ("frf_reference_real", "ref_re", _FRF, _FRF_UNITS,
+    ("frf_reference_real", "ref_re", _FRF, _FRF_MIXED,
      "reference FRF (see the reference attribute), real part", None),
-    ("frf_reference_imag", "ref_im", _FRF, _FRF_UNITS,
+    ("frf_reference_imag", "ref_im", _FRF, _FRF_MIXED,
      "reference FRF (see the reference attribute), imaginary part", None),
-    ("frf_reference_lower", "ref_lo", _FRF, _FRF_UNITS,
+    ("frf_reference_lower", "ref_lo", _FRF, _FRF_MIXED,
      "lower 95 % bound of the reference FRF magnitude (NaN: exact reference)", None),
-    ("frf_reference_upper", "ref_hi", _FRF, _FRF_UNITS,
+    ("frf_reference_upper", "ref_hi", _FRF, _FRF_MIXED,
      "upper 95 % bound of the reference FRF magnitude (NaN: exact reference)", None),
     ("coherence", "coh", _FRF, "1",
      "coherence of the reference estimate (NaN: exact reference)", None),
@@ -72,7 +72,10 @@ _ARRAYS: tuple[tuple[str, str, tuple[str, ...], str, str, str | None], ...] = (
      "NaN above its band)", None),
     ("match_bandwidth", "bw", ("model",), "Hz",
      "highest frequency up to which every FRF element is within tolerance of the reference",
-     None),
+     "NaN for a failed row (no usable model)"),
+    ("stable", "stable", ("model",), "1",
+     "1 if no pole grows faster than the reference's modes by more than x2 per validation "
+     "segment, else 0", "NaN: unknown (failed row, no usable model)"),
     ("element_match_bandwidth", "ebw", ("model", "output", "input"), "Hz",
      "match bandwidth per FRF element", None),
     ("fit", "fit", ("model", "output"), "percent",
@@ -89,24 +92,41 @@ _ARRAYS: tuple[tuple[str, str, tuple[str, ...], str, str, str | None], ...] = (
 )
 
 
-def frf_units(record: xr.Dataset, results: Sequence[Mapping[str, Any]]) -> str:
-    """Unit of the stored FRFs: output unit per input unit, from the record's signals.
+def person_unit(unit: str) -> str:
+    """A unit as a person writes it in a label: products with a middle dot (``N m`` ->
+    ``N·m``)."""
+    return "·".join(str(unit).split())
 
-    One unit for the whole file, as CF wants; pairings with different unit ratios get
-    ``1`` and a per-model note is left to ``input_name``/``output_name``.
-    """
+
+def ratio_unit(out: str, inp: str) -> str:
+    """Unit of an FRF from ``inp`` to ``out`` as a person writes it, e.g.
+    ``(rad/s)/(N·m)`` (never ``rad s-1 N-1 m-1``, which reads as rad/(s·N·m)) or
+    ``N·m/N·m``."""
+    o, i = person_unit(out), person_unit(inp)
+    if o == i:
+        return f"{o}/{i}"
+    return f"({o})/({i})" if "/" in o else f"{o}/({i})" if ("/" in i or "·" in i) else f"{o}/{i}"
+
+
+def frf_units(record: xr.Dataset, result: Mapping[str, Any]) -> str:
+    """Unit of one model's FRF from the record's signal units (:func:`ratio_unit`);
+    ``mixed (see input_name, output_name)`` for a MIMO model whose elements differ."""
     def unit(name: str) -> str:
         return str(record[name].attrs.get("units", "1")) if name in record else "1"
 
-    ratios = {(unit(o), unit(i)) for r in results for o in r["outputs"] for i in r["inputs"]}
-    if len(ratios) != 1:
-        return "1"
-    out, inp = ratios.pop()
-    if out == inp:
-        return "1"
-    if (out, inp) == ("rad/s", "N m"):
-        return _FRF_UNITS
-    return f"({out})/({inp})"
+    ratios = {ratio_unit(unit(o), unit(i)) for o in result["outputs"] for i in result["inputs"]}
+    return ratios.pop() if len(ratios) == 1 else "mixed (see input_name, output_name)"
+
+
+def _file_frf_units(per_model: Sequence[str]) -> str:
+    # one CF unit for the whole array where every model shares it; a dimensionless ratio
+    # (N·m/N·m) is "1" for CF (UDUNITS reads "N·m/N·m" as m²), else the ratio itself
+    units = set(per_model)
+    if len(units) != 1:
+        return _FRF_MIXED
+    u = units.pop()
+    num, _, den = u.partition("/")
+    return "1" if num == den else _FRF_MIXED if u.startswith("mixed") else u
 
 
 def pad(a: np.ndarray, shape: tuple[int, ...]) -> np.ndarray:
@@ -162,7 +182,7 @@ def models_dataset(results: Sequence[Mapping[str, Any]], dt: float, method: str,
         "K": (nm, nx, ny), "noise_cov": (nm, ny, ny), "sv": (nm, nsv),
         **dict.fromkeys(("frf_re", "frf_im", "frf_lo", "frf_hi", "ref_re", "ref_im", "ref_lo",
                          "ref_hi", "coh", "err"), (nm, nf, ny, nu)),
-        "bw": (nm,), "band": (nm,), "assess": (nm, nf),
+        "bw": (nm,), "band": (nm,), "assess": (nm, nf), "stable": (nm,),
         "ebw": (nm, ny, nu), "fit": (nm, ny), "mt": (nm, nmode), "zt": (nm, nmode),
         "mm": (nm, nmode), "mi": (nm, nmid), "zi": (nm, nmid)}.items()}
     order = np.zeros(nm, dtype=np.int32)
@@ -174,6 +194,7 @@ def models_dataset(results: Sequence[Mapping[str, Any]], dt: float, method: str,
                          ("assess", ref.assessable.astype(float))):
             arr[key][k] = pad(val, arr[key].shape[1:])
         arr["band"][k] = ref.band_max
+        arr["stable"][k] = r["verdict"].stable
         m = r["model"]
         if m is None:
             continue
@@ -182,17 +203,20 @@ def models_dataset(results: Sequence[Mapping[str, Any]], dt: float, method: str,
                          ("noise_cov", m.noise_cov), ("sv", m.singular_values),
                          ("frf_re", r["g_id"].real), ("frf_im", r["g_id"].imag),
                          ("frf_lo", r["g_lower_db"]), ("frf_hi", r["g_upper_db"]),
-                         ("err", r["err"]), ("ebw", r["element_bw"]), ("fit", r["fit"]),
+                         ("err", r["err"]), ("fit", r["fit"]),
                          ("mm", r["modes_matched"]), ("mi", r["modes_id"]),
                          ("zi", r["zeta_id"])):
             arr[key][k] = pad(np.asarray(val, dtype=float), arr[key].shape[1:])
-        arr["bw"][k] = r["bandwidth"]
+        if r["status"] != "failed":  # a failed row claims no band
+            arr["bw"][k] = r["bandwidth"]
+            arr["ebw"][k] = pad(np.asarray(r["element_bw"], float), arr["ebw"].shape[1:])
     names = [f"{r['pairing']}/{r['version']}" for r in results]
 
     def strs(rows: list[list[str]], n: int) -> np.ndarray:
         return np.array([row + [""] * (n - len(row)) for row in rows], dtype=object)
 
     dims_m = ("model",)
+    frf_unit = [frf_units(record, r) for r in results]
     v = {
         "pairing": (dims_m, np.array([r["pairing"] for r in results], dtype=object),
                     {"units": "1", "long_name": "signal pairing name"}),
@@ -203,11 +227,19 @@ def models_dataset(results: Sequence[Mapping[str, Any]], dt: float, method: str,
                        {"units": "1", "long_name": "input signal of each input channel"}),
         "output_name": (("model", "output"), strs([r["outputs"] for r in results], ny),
                         {"units": "1", "long_name": "output signal of each output channel"}),
-        "frf_unit": (dims_m, np.array([frf_units(record, [r]) for r in results], dtype=object),
+        "frf_unit": (dims_m, np.array(frf_unit, dtype=object),
                      {"units": "1", "long_name": "unit of this model's FRF (output per input)"}),
         "status": (dims_m, np.array([r["status"] for r in results], dtype=object),
-                   {"units": "1", "long_name": "identification status"}),
+                   {"units": "1", "long_name": "identification status: ok, poor or failed "
+                                               "(gbpipe.identify.status)"}),
+        "reason": (dims_m, np.array([r["reason"] for r in results], dtype=object),
+                   {"units": "1", "long_name": "why the status: every unmet condition of ok, "
+                                               "or why the row failed"}),
         "order": (dims_m, order, {"units": "1", "long_name": "identified model order"}),
+        "order_source": (dims_m, np.array([r.get("order_source", f"identify.order = "
+                                                 f"{s['order']}") for r in results],
+                                          dtype=object),
+                         {"units": "1", "long_name": "where the model order came from"}),
         "n_inputs": (dims_m, np.array([len(r["inputs"]) for r in results], dtype=np.int32),
                      {"units": "1", "long_name": "number of inputs"}),
         "n_outputs": (dims_m, np.array([len(r["outputs"]) for r in results], dtype=np.int32),
@@ -234,10 +266,16 @@ def models_dataset(results: Sequence[Mapping[str, Any]], dt: float, method: str,
                                                  "long_name": "identified mode index"}),
     }
     ds = xr.Dataset(v, coords=coords)
-    units = frf_units(record, results)
+    units = _file_frf_units(frf_unit)
     for name in ("frf_identified_real", "frf_identified_imag", "frf_reference_real",
                  "frf_reference_imag", "frf_reference_lower", "frf_reference_upper"):
         ds[name].attrs["units"] = units
+    # what D is: estimated (identify.feedthrough), or held at 0 by the fit, in which case
+    # only a reflection of out-of-band poles (which refits B and D) makes it non-zero
+    ds["D"].attrs["long_name"] = ("identified feedthrough matrix D (estimated)"
+                                  if s["feedthrough"] else
+                                  "identified feedthrough matrix D (0 in the fit; refitted "
+                                  "where out-of-band poles were reflected)")
     ds["sample_time"] = ((), dt, {"units": "s", "long_name": "identification sample time"})
     ds.attrs.update(method=method,
                     test=str(record.attrs.get("test", record.attrs.get("record", ""))),

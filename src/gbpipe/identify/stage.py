@@ -20,9 +20,12 @@ import numpy as np
 import xarray as xr
 
 from gbpipe.errors import StageError
+from gbpipe.identify.bench_data import bench_data, bench_sources
+from gbpipe.identify.checks import check_signals
 from gbpipe.identify.dataset import models_dataset
 from gbpipe.identify.fitting import METHODS, fit_model, fit_with_bounds, validation_fit
 from gbpipe.identify.metrics import identified_modes, match_modes
+from gbpipe.identify.orders import row_order
 from gbpipe.identify.prepare import ConditionedRecord
 from gbpipe.identify.reference import (
     Reference,
@@ -31,9 +34,10 @@ from gbpipe.identify.reference import (
     truth_reference,
     within_reference,
 )
+from gbpipe.identify.status import assess, reference_growth_rate
 from gbpipe.io import longest_segment
 
-__all__ = ["identify_methods", "identify_record", "holdout_split", "record_label"]
+__all__ = ["identify_methods", "identify_record", "record_label"]
 
 log = logging.getLogger("gbpipe")
 
@@ -47,66 +51,69 @@ def _fit_row(res: dict[str, Any], method: str, data: tuple[np.ndarray, ...], dt:
         m, lower_db, upper_db = fit_with_bounds(method, u, y, dt, s, ref.frequency)
     else:  # no bounds for this method (identify.bounds)
         m = fit_model(method, u, y, dt, s)
-        lower_db = upper_db = np.full((ref.frequency.size, y.shape[1], u.shape[1]), np.nan)
+        lower_db = upper_db = np.full((ref.frequency.size, m.C.shape[0], m.B.shape[1]), np.nan)
     g_id = m.frf(ref.frequency)
     err = within_reference(g_id, ref, s["tolerance_db"])
-    fit = validation_fit(m, uv, yv, int(round(s["fit_segment"] / dt)))
+    # the hold-out fit: mean over the held-out windows (one per record); NaN stays NaN
+    fit = np.mean([validation_fit(m, a, b, int(round(s["fit_segment"] / dt)))
+                   for a, b in zip(uv, yv, strict=True)], axis=0)
     fm_id, zm_id = identified_modes(m.A, dt, s["frf"]["f_max"], s["zeta_max"])
     tol = s["tolerance_db"]
     # where the reference cannot judge (an incoherent estimate) the error is NaN: those
     # frequencies are skipped, they do not count as a miss
     f = ref.frequency
+    bw = reference_bandwidth(f, err, ref, tol)
     res.update(model=m, g_id=g_id, g_lower_db=lower_db, g_upper_db=upper_db, err=err, fit=fit,
-               bandwidth=reference_bandwidth(f, err, ref, tol),
+               bandwidth=bw,
                element_bw=np.array([[reference_bandwidth(f, err[:, o, i], ref, tol)
                                      for i in range(err.shape[2])]
                                     for o in range(err.shape[1])]),
                modes_id=fm_id, zeta_id=zm_id,
                modes_matched=match_modes(ref.modes, fm_id))
-    # a NaN or inf fit is a failure, never "ok"
-    res["status"] = ("ok" if np.all(np.isfinite(fit)) else
-                     f"failed: validation fit is not finite ({np.round(fit, 1).tolist()} %)")
-
-
-def holdout_split(x: np.ndarray, share: float) -> tuple[np.ndarray, np.ndarray]:
-    """Fit and validation parts of conditioned data: the last ``share`` is held out.
-
-    Used when a measured record has no validation record of its own: the fit % is then
-    computed on data the fit never saw (the end of the record).
-    """
-    n_val = int(round(share * len(x)))
-    return x[:len(x) - n_val], x[len(x) - n_val:]
+    # the evidence the match band rests on: assessable frequencies inside it
+    n_points = int(np.sum(ref.assessable & (f <= bw)))
+    res["verdict"] = assess(m, fit, n_points, reference_growth_rate(ref.modes, ref.damping), s)
 
 
 def identify_record(cfg: Mapping[str, Any], record: xr.Dataset,
                     validation: xr.Dataset | None, truth: xr.Dataset | None, method: str,
                     removed: Mapping[str, tuple[xr.Dataset, xr.Dataset | None]]
-                    | None = None) -> xr.Dataset:
+                    | None = None, **kwargs: Any) -> xr.Dataset:
     """Identify every configured pairing x data version of one record with one method.
 
-    :func:`identify_methods` with ``methods=(method,)``; the parameters, return value and
-    errors are those of one of its methods.
+    :func:`identify_methods` with ``methods=(method,)`` (``kwargs``: its ``orders``,
+    ``order_source``, ``validation_window``); the parameters, return value and errors are
+    those of one of its methods.
     """
-    return identify_methods(cfg, record, validation, truth, (method,), removed)[method]
+    return identify_methods(cfg, record, validation, truth, (method,), removed,
+                            **kwargs)[method]
 
 
-def identify_methods(cfg: Mapping[str, Any], record: xr.Dataset,
+def identify_methods(cfg: Mapping[str, Any], record: xr.Dataset | Sequence[xr.Dataset],
                      validation: xr.Dataset | None, truth: xr.Dataset | None,
                      methods: Sequence[str],
                      removed: Mapping[str, tuple[xr.Dataset, xr.Dataset | None]]
-                     | None = None) -> dict[str, xr.Dataset]:
+                     | Sequence[Mapping[str, tuple[xr.Dataset, None]]] | None = None,
+                     orders: Mapping[str, int] | None = None,
+                     order_source: Mapping[str, str] | None = None,
+                     validation_window: tuple[float, float]
+                     | Sequence[tuple[float, float] | None] | None = None
+                     ) -> dict[str, xr.Dataset]:
     """Identify every configured pairing x data version of one record with each method.
 
     Parameters
     ----------
     cfg : mapping
         Validated configuration slice: ``campaign.settle`` and the ``identify`` section.
-    record : xarray.Dataset
+    record : xarray.Dataset or sequence of xarray.Dataset
         The record identified: simulated (:func:`gbpipe.simulate.test`) or measured
-        (:func:`gbpipe.measured.read`).
+        (:func:`gbpipe.measured.read`); or the repeats of one bench test (``group:`` in
+        ``measured:``, their ``group`` attribute names the output), pooled: one
+        nonparametric estimate with every record's averages and one multi-experiment
+        model (:mod:`gbpipe.identify.bench_data`).
     validation : xarray.Dataset or None
-        The record the fit % is computed on (never used for fitting). None: the last
-        ``identify.holdout`` share of ``record`` is held out instead.
+        The record the fit % is computed on (never used for fitting). None: a window of
+        ``record`` is held out instead (``validation_window``).
     truth : xarray.Dataset or None
         The model stage's ``truth.nc`` (true FRFs on the identification grid, modes). None
         for a measured record: each model is scored against the nonparametric FRF of the
@@ -117,56 +124,105 @@ def identify_methods(cfg: Mapping[str, Any], record: xr.Dataset,
         Per harmonic-removal version (``tsa``, ``vkf``, ...): the record and the
         validation record after that removal (``removal_tests``
         outputs; the second None without a validation record). Required for every
-        version in ``identify.versions`` but ``clean`` and ``raw``.
+        version in ``identify.versions`` but ``clean`` and ``raw``. Pooled records: one
+        such mapping per record.
+    orders : mapping str -> int, optional
+        Model order per pairing name (e.g. from the record's stabilization diagram:
+        :func:`gbpipe.identify.orders.stabilization_orders`); a pairing absent from it is
+        fitted with ``identify.order`` (``stabilization`` without an order: ``auto``).
+    order_source : mapping str -> str, optional
+        Where each order of ``orders`` came from (stored per model as ``order_source``).
+    validation_window : (float, float), or a sequence of them (or None) per pooled record
+        Without ``validation``: the held-out ``start, end`` [s from the record start]
+        (``measured.<record>.validation``); default: the latest ``identify.holdout`` of
+        the record holding ``identify.holdout_power_min`` of the inputs' band power
+        (:mod:`gbpipe.identify.windows`). The operating point of such a record is its mean
+        before the inputs' first excitation (at most ``campaign.settle``).
 
     Returns
     -------
     dict of str -> xarray.Dataset
-        Per method, :func:`gbpipe.identify.models_dataset`; ``status`` says "ok" or why a
-        row failed; the ``reference`` attribute says what the FRFs were scored against.
+        Per method, :func:`gbpipe.identify.models_dataset`; ``status`` is ok, poor or
+        failed and ``reason`` says why (:mod:`gbpipe.identify.status`); the ``reference``
+        attribute says what the FRFs were scored against.
 
     Raises
     ------
     ValueError
         An unknown method, or a removal version without its records in ``removed``.
+    gbpipe.errors.DataError
+        Before any fit: an input, output or reference signal without variance, or an
+        input without power in the identified band (:func:`gbpipe.identify.checks.
+        check_signals`).
     gbpipe.errors.StageError
         Every row of a method failed (the message lists each failure).
     """
     s = cfg["identify"]
-    record = longest_segment(record)  # a split bench record: its longest piece
+    pooled = not isinstance(record, xr.Dataset)
+    # a split bench record: its longest piece
+    records = [longest_segment(r) for r in (record if pooled else [record])]
     for method in methods:
         if method not in METHODS:
             raise ValueError(f"unknown method {method!r}; use {', '.join(METHODS)}")
-    removed = dict(removed or {})
+    if pooled and (validation is not None or truth is not None):
+        raise ValueError("pooled records are bench records: no validation record, no truth")
+    removed_all = [dict(r) for r in (removed or [{}] * len(records))] if pooled else \
+        [dict(removed or {})]
     for version in s["versions"]:
         if version in ("clean", "raw"):
             continue
-        if version not in removed or (validation is not None and removed[version][1] is None):
+        if any(version not in rem or (validation is not None and rem[version][1] is None)
+               for rem in removed_all):
             raise ValueError(f"version {version!r} needs the record and validation record "
                              f"after that harmonic removal (removed[{version!r}])")
-    fs = float(record.attrs["sample_rate"])
     fs_id = float(s["sample_rate"])
     dt = 1.0 / fs_id
-    # each (record, version, signal) is conditioned once for all pairings and methods
-    grid = (fs, float(cfg["campaign"]["settle"]), fs_id, s["lowpass"])
-    rec = ConditionedRecord(record, {v: tr for v, (tr, _) in removed.items()}, *grid)
-    val = (None if validation is None else
-           ConditionedRecord(validation, {v: tv for v, (_, tv) in removed.items()}, *grid))
+    where, band = _label(records), (s["frf"]["f_min"], s["frf"]["f_max"])
+    first, settle = s["versions"][0], float(cfg["campaign"]["settle"])
+    grid = (float(records[0].attrs["sample_rate"]), settle, fs_id, s["lowpass"])
+    notes: dict[str, str] = {}
+    sources = None
+    if validation is None:  # bench records: operating point and hold-out from their data
+        wins = (list(validation_window or [None] * len(records)) if pooled
+                else [validation_window])
+        sources = bench_sources(records, [{v: tr for v, (tr, _) in rem.items()}
+                                          for rem in removed_all], settle, s, wins)
+        for key in ("operating_point", "validation_test"):
+            notes[key] = "; ".join(f"{src.name}: {src.notes[key]}" if pooled
+                                   else src.notes[key] for src in sources)
+        if pooled:
+            notes["records"] = ",".join(src.name for src in sources)
+        conditioned = [src.rec for src in sources]
+    else:  # each (record, version, signal) is conditioned once for all pairings and methods
+        rem = removed_all[0]
+        conditioned = [ConditionedRecord(records[0], {v: tr for v, (tr, _) in rem.items()},
+                                         *grid)]
+        val = ConditionedRecord(validation, {v: tv for v, (_, tv) in rem.items()}, *grid)
+    min_len = 2 * (int(s["past"]) + int(s["future"]))
 
     rows = []  # (pairing, version, data, reference): what every method fits and is scored on
     for p in s["pairings"]:
-        ref_truth = truth_reference(truth, p, record) if truth is not None else None
+        ref_truth = truth_reference(truth, p, records[0]) if truth is not None else None
+        # unusable signals are refused here, before any fit (checks.py)
+        for rec in conditioned:
+            check_signals(where, p["inputs"], rec(p["inputs"], first), "input", fs_id, band)
+            check_signals(where, p["outputs"], rec(p["outputs"], first), "output", fs_id)
+            if "reference" in p:
+                check_signals(where, p["reference"], rec(p["reference"], "raw"),
+                              "reference", fs_id)
         # a mapped set-point of a closed-loop bench record: the nonparametric estimate
         # goes through it, free of the feedback's bias (its version is immaterial)
-        r = rec(p["reference"], "raw") if "reference" in p else None
-        if r is not None and val is None:
-            r = holdout_split(r, s["holdout"])[0]
+        r = None
+        if "reference" in p:
+            r = (bench_data(sources, p["reference"], "raw", min_len)[0] if sources
+                 else conditioned[0](p["reference"], "raw"))
         for version in s["versions"]:
-            u, y = rec(p["inputs"], version), rec(p["outputs"], version)
-            if val is None:
-                (u, uv), (y, yv) = holdout_split(u, s["holdout"]), holdout_split(y, s["holdout"])
+            if sources:  # fit on the rest of every record, in pieces (multi-experiment)
+                u, uv = bench_data(sources, p["inputs"], version, min_len)
+                y, yv = bench_data(sources, p["outputs"], version, min_len)
             else:
-                uv, yv = val(p["inputs"], version), val(p["outputs"], version)
+                u, y = conditioned[0](p["inputs"], version), conditioned[0](p["outputs"], version)
+                uv, yv = [val(p["inputs"], version)], [val(p["outputs"], version)]
             ref = ref_truth or nonparametric_reference(u, y, fs_id, s, r)
             rows.append((p, version, (u, y, uv, yv), ref))
 
@@ -174,9 +230,12 @@ def identify_methods(cfg: Mapping[str, Any], record: xr.Dataset,
     # window products (gbpipe.sysid remembers them: gbpipe.memo)
     results: dict[str, list[dict[str, Any]]] = {method: [] for method in methods}
     for p, version, data, ref in rows:
+        order, source = row_order(s, p["name"], orders, order_source)
+        s_row = {**s, "order": order}
         for method in methods:
-            results[method].append(_identify_row(method, p, version, data, ref, dt, s))
-    return {method: _method_dataset(method, results[method], dt, s, record, validation)
+            res = _identify_row(method, p, version, data, ref, dt, s_row)
+            results[method].append({**res, "order_source": source})
+    return {method: _method_dataset(method, results[method], dt, s, records, validation, notes)
             for method in methods}
 
 
@@ -189,25 +248,39 @@ def _identify_row(method: str, p: Mapping[str, Any], version: str,
     try:
         _fit_row(res, method, data, dt, s)
     except (ValueError, RuntimeError, np.linalg.LinAlgError) as exc:
-        res.update(status=f"failed: {type(exc).__name__}: {exc}", model=None)
-    if res["status"] == "ok":
-        log.info("%s %-14s %-5s order %2d: bandwidth %6.1f Hz (vs %s), fit %s %%",
-                 method, p["name"], version, res["model"].order, res["bandwidth"],
-                 ref.kind, np.round(res["fit"], 1))
+        res.update(model=None,
+                   verdict=assess(None, None, 0, 0.0, s, f"{type(exc).__name__}: {exc}"))
+    res["status"], res["reason"] = res["verdict"].status, res["verdict"].reason
+    if res["status"] == "failed":
+        log.warning("%s %s/%s failed: %s", method, p["name"], version, res["reason"])
     else:
-        log.warning("%s %s/%s %s", method, p["name"], version, res["status"])
+        log.info("%s %-14s %-5s order %2d: bandwidth %6.1f Hz (vs %s), fit %s %%: %s (%s)",
+                 method, p["name"], version, res["model"].order, res["bandwidth"],
+                 ref.kind, np.round(res["fit"], 1), res["status"], res["reason"])
     return res
 
 
 def _method_dataset(method: str, results: list[dict[str, Any]], dt: float,
-                    s: Mapping[str, Any], record: xr.Dataset,
-                    validation: xr.Dataset | None) -> xr.Dataset:
+                    s: Mapping[str, Any], records: Sequence[xr.Dataset],
+                    validation: xr.Dataset | None, notes: Mapping[str, str]) -> xr.Dataset:
     # the method's dataset from its rows; every row failed: StageError
-    if not any(r["status"] == "ok" for r in results):
-        failures = "\n".join(f"  {r['pairing']}/{r['version']}: {r['status']}" for r in results)
-        raise StageError(f"identify {method} on {record_label(record)}: all {len(results)} "
+    if all(r["status"] == "failed" for r in results):
+        failures = "\n".join(f"  {r['pairing']}/{r['version']}: {r['reason']}" for r in results)
+        raise StageError(f"identify {method} on {_label(records)}: all {len(results)} "
                          f"identifications failed:\n{failures}")
-    return models_dataset(results, dt, method, s, record, validation)
+    ds = models_dataset(results, dt, method, s, records[0], validation)
+    ds.attrs.update(notes)  # bench records: operating point, hold-out window, records
+    if len(records) > 1:  # pooled repeats: the file is named by their group
+        ds.attrs["test"] = str(records[0].attrs.get("group", ds.attrs["test"]))
+    return ds
+
+
+def _label(records: Sequence[xr.Dataset]) -> str:
+    # one record's label, or the pooled group's with its records
+    if len(records) == 1:
+        return record_label(records[0])
+    names = ", ".join(str(r.attrs.get("record", "?")) for r in records)
+    return f"group {records[0].attrs.get('group', '?')} (records {names})"
 
 
 def record_label(record: xr.Dataset) -> str:

@@ -94,15 +94,18 @@ def table_rows(datasets: Sequence[xr.Dataset],
                 "element_bandwidth_hz": ";".join(
                     f"{SHORT.get(outs[o], outs[o])}<-{SHORT.get(ins[i], ins[i])}:"
                     f"{ebw[o, i]:.4g}" for o in range(ny) for i in range(nu)),
-                "within_tol_pct": _within_pct(sel, ny, nu, ds.attrs["tolerance_db"]),
+                # a failed row claims no share either (its model, if any, is unusable)
+                "within_tol_pct": (float("nan") if str(sel.status.values) == "failed"
+                                   else _within_pct(sel, ny, nu, ds.attrs["tolerance_db"])),
                 "fit_pct": float(np.mean(fit)) if np.all(np.isfinite(fit)) else float("nan"),
                 "fit_min_pct": float(np.min(fit)) if np.all(np.isfinite(fit)) else float("nan"),
-                "stable": bool(np.all(np.abs(np.linalg.eigvals(
-                    np.nan_to_num(sel.A.values[:int(sel.order), :int(sel.order)]))) < 1.0))
-                if int(sel.order) else False,
+                # the status's criterion (gbpipe.identify.status); unknown without a model
+                "stable": ("unknown" if not np.isfinite(float(sel.stable))
+                           else bool(float(sel.stable) > 0.5)),
                 "modes_true": int(ok.sum()),
                 "modes_within_tol": int(np.sum(rel <= ds.attrs["mode_tolerance"])),
                 "status": str(sel.status.values),
+                "reason": str(sel.reason.values),
             })
     by_key = {(r["test"], r["profile"], r["method"], r["pairing"], r["version"]): r
               for r in rows}
@@ -120,13 +123,24 @@ def table_rows(datasets: Sequence[xr.Dataset],
     return rows
 
 
+def _rank(r: Mapping[str, Any]) -> tuple[int, float, float]:
+    # ok before poor; then the achieved band, then the fit (NaN ranks last, never first)
+    def num(key: str) -> float:
+        x = float(r[key])
+        return x if np.isfinite(x) else -np.inf
+
+    return int(str(r["status"]) == "ok"), num("achieved_hz"), num("fit_pct")
+
+
 def best_pairings(rows: Sequence[Mapping[str, Any]], versions: Sequence[str]
                   ) -> list[dict[str, Any]]:
     """The best pairing of each motor torque by the numbers, not by choice.
 
     For each input (a motor torque, or both for MIMO) the SISO or MIMO pairing whose
     identified model reaches the widest achieved bandwidth over every test, profile and
-    method of the given data versions; ties go to the higher fit %.
+    method of the given data versions; ``ok`` models rank before ``poor`` ones, ``failed``
+    rows are never chosen, ties go to the higher fit %, and a NaN number ranks below every
+    finite one.
 
     Parameters
     ----------
@@ -138,27 +152,25 @@ def best_pairings(rows: Sequence[Mapping[str, Any]], versions: Sequence[str]
     Returns
     -------
     list of dict
-        One row per input set: the winning row's keys, and ``runner_up`` (pairing and its
-        achieved bandwidth [Hz]) so the margin is visible.
+        One row per input set that has a model which did not fail: the winning row's keys,
+        and ``runner_up`` (pairing, its achieved bandwidth [Hz] and status) so the margin
+        is visible.
     """
-    def score(r: Mapping[str, Any]) -> tuple[float, float]:
-        fit = float(r["fit_pct"])
-        return float(r["achieved_hz"]), fit if np.isfinite(fit) else -np.inf
-
     out = []
     for inputs in sorted({str(r["inputs"]) for r in rows}):
-        cand = [r for r in rows if r["inputs"] == inputs and r["version"] in versions]
+        cand = [r for r in rows if r["inputs"] == inputs and r["version"] in versions
+                and str(r["status"]) in ("ok", "poor")]
         if not cand:
             continue
         # the best model of each pairing, then the pairings ranked
         per_pairing: dict[str, Mapping[str, Any]] = {}
         for r in cand:
             p = str(r["pairing"])
-            if p not in per_pairing or score(r) > score(per_pairing[p]):
+            if p not in per_pairing or _rank(r) > _rank(per_pairing[p]):
                 per_pairing[p] = r
-        ranked = sorted(per_pairing.values(), key=score, reverse=True)
+        ranked = sorted(per_pairing.values(), key=_rank, reverse=True)
         best = dict(ranked[0])
         best["runner_up"] = (f"{ranked[1]['pairing']}: {float(ranked[1]['achieved_hz']):.4g} Hz"
-                             if len(ranked) > 1 else "none")
+                             f" ({ranked[1]['status']})" if len(ranked) > 1 else "none")
         out.append(best)
     return out

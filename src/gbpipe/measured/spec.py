@@ -20,7 +20,7 @@ __all__ = ["FileSpec", "SignalSpec", "RecordSpec", "parse", "GAP_POLICIES", "CHE
            "LEVELS", "default_checks"]
 
 GAP_POLICIES = ("refuse", "split")
-_RECORD_KEYS = ("files", "sample_rate", "signals", "gaps", "orders")
+_RECORD_KEYS = ("files", "sample_rate", "signals", "gaps", "orders", "validation", "group")
 _FILE_KEYS = ("path", "format", "time", "sample_rate", "delimiter", "decimal", "header",
               "time_unit", "interleaved")
 _SIGNAL_KEYS = ("file", "channel", "unit", "scale", "offset", "quantity", "pulses_per_rev",
@@ -98,6 +98,10 @@ class RecordSpec:
     interpolate_upto: int = 0
     #: excitation orders of the tacho shaft (docs/modal.md): their lines are not modes
     orders: tuple[float, ...] = ()
+    #: held-out window ``(start, end)`` [s] of the identification (None: from the data)
+    validation: tuple[float, float] | None = None
+    #: name shared by the repeats of one test, identified pooled (None: alone)
+    group: str | None = None
 
 
 def _unknown(field: str, key: str, valid: tuple[str, ...]) -> ConfigError:
@@ -219,7 +223,8 @@ def parse(spec: Mapping[str, Any], name: str = "record") -> RecordSpec:
     ----------
     spec : mapping
         The entry: ``files``, ``sample_rate``, ``signals``, optional ``gaps`` and
-        ``orders``.
+        ``orders``, and for the identification optional ``validation: {start, end}``
+        [s] (held-out window) and ``group`` (repeats of one test, pooled).
     name : str
         Record name, used in the key paths of error messages (``measured.<name>...``).
 
@@ -262,4 +267,28 @@ def parse(spec: Mapping[str, Any], name: str = "record") -> RecordSpec:
     return RecordSpec(name=name, files=files, signals=signals,
                       sample_rate=_positive(m["sample_rate"], f"{root}.sample_rate"),
                       gaps=gaps, interpolate_upto=upto,
-                      orders=tuple(float(k) for k in orders))
+                      orders=tuple(float(k) for k in orders),
+                      validation=_window(m.get("validation"), f"{root}.validation"),
+                      group=_group(m.get("group"), f"{root}.group"))
+
+
+def _window(value: Any, field: str) -> tuple[float, float] | None:
+    # the identification's held-out window {start, end} [s from the record start]
+    if value is None:
+        return None
+    m = _mapping(value, field, ("start", "end"))
+    if set(m) != {"start", "end"}:
+        raise ConfigError(field, "needs both start and end [s from the record start]")
+    start, end = _number(m["start"], f"{field}.start"), _number(m["end"], f"{field}.end")
+    if not 0 <= start < end:
+        raise ConfigError(field, f"needs 0 <= start < end [s]; got {start:g}-{end:g}")
+    return start, end
+
+
+def _group(value: Any, field: str) -> str | None:
+    # records of one test share a group name and are identified together
+    if value is None:
+        return None
+    if not isinstance(value, str) or not value.replace("_", "").isalnum():
+        raise ConfigError(field, f"must be a name of letters, digits and _; got {value!r}")
+    return value

@@ -119,9 +119,9 @@ def fit_data(identified: xr.Dataset, identifiable: xr.DataArray, pairings: Seque
     out = []
     for p in pairings:
         d = identified.isel(model=_model_index(identified, p.name, version))
-        if str(d.status.values) != "ok":
+        if str(d.status.values) == "failed":  # a poor model is still data to fit to
             raise DataError(f"pairing {p.name}, version {version}", f"identification "
-                            f"failed ({d.status.values}): leave it out of fit.pairings")
+                            f"failed ({d.reason.values}): leave it out of fit.pairings")
         no, ni = len(p.outputs), len(p.inputs)
         g = (d.frf_identified_real + 1j * d.frf_identified_imag).values[:, :no, :ni].copy()
         keep = in_band & identifiable.sel(pairing=p.name).values.astype(bool)
