@@ -36,8 +36,8 @@ def _unit_records(w):
 
 def _stabilization(w):
     # identify.order: stabilization takes the orders from the record's stabilization
-    # diagram (rule modes_measured; a group: its first record's) when that rule exists
-    if config["identify"]["order"] != "stabilization" or not workflow.is_rule("modes_measured"):
+    # diagram (rule modes_measured; a group: its first record's)
+    if config["identify"]["order"] != "stabilization":
         return []
     return [f"{RESULTS}/modes/measured/{_unit_records(w)[0]}.nc"]
 
