@@ -15,9 +15,10 @@ import numpy as np
 import pytest
 from scipy import signal
 
-from gbpipe.config import load, measured_specs, merge
-from gbpipe.identify import modes_table_rows, record_modes
+from gbpipe.config import load, measured_specs, merge, validate
+from gbpipe.identify import identify_record, modes_table_rows, record_modes
 from gbpipe.identify.modal import TABLE_COLUMNS
+from gbpipe.identify.orders import stabilization_orders
 from gbpipe.measured import read
 from tests.conftest import CONFIG
 from tests.identify import opentorsion_chain as oc
@@ -61,11 +62,11 @@ def chain_modes(request, tmp_path_factory):
     spec = measured_specs(cfg)["chain"]
     record = read(truth.spec, base_dir=folder, name="chain")
     ds = record_modes(cfg, record, spec.orders)
-    return truth, cfg, ds, truth.signals
+    return truth, cfg, ds, truth.signals, record
 
 
 def test_every_visible_mode_found_and_no_line_called_a_mode(chain_modes):
-    truth, cfg, ds, data = chain_modes
+    truth, cfg, ds, data, _ = chain_modes
     s = cfg["identify"]
     band = (s["frf"]["f_min"], s["frf"]["f_max"])
     need = visible_modes(truth, data, band, s["nonparametric"]["coherence_min"])
@@ -87,7 +88,7 @@ def test_every_visible_mode_found_and_no_line_called_a_mode(chain_modes):
 
 
 def test_order_lines_are_labelled_harmonic(chain_modes):
-    truth, cfg, ds, _ = chain_modes
+    truth, cfg, ds, _, _ = chain_modes
     res = 1.0 / SEGMENT
     # the lines' frequency ranges from the chain's own speed sweep and orders
     lines = [(k * truth.shaft_hz[0] - res, k * truth.shaft_hz[1] + res) for k in truth.orders]
@@ -103,7 +104,7 @@ def test_order_lines_are_labelled_harmonic(chain_modes):
 
 
 def test_model_order_holds_every_cluster(chain_modes):
-    _, cfg, ds, _ = chain_modes
+    _, cfg, ds, _, _ = chain_modes
     tol = cfg["identify"]["stabilization"]["frequency_tolerance"]
     for method in ds.method.values:
         d = ds.sel({"method": method}).isel(pairing=0)
@@ -118,3 +119,32 @@ def test_model_order_holds_every_cluster(chain_modes):
     assert rows and all(tuple(r) == TABLE_COLUMNS for r in rows)
     assert len(rows) == int(np.isfinite(ds.mode_frequency.values).sum())
 
+
+
+def test_models_at_the_stabilization_order_are_ok_only_where_they_match_the_chain(chain_modes):
+    """Identified at the order its own stabilization diagram chose (nothing of the
+    configured gearbox), every model called ``ok`` has a hold-out fit of at least
+    ``identify.fit_min`` and matches the chain's true FRF (openTorsion's matrices, not the
+    data) within the tolerance over its match band; at least one model is ``ok``."""
+    truth, cfg, ds, _, record = chain_modes
+    # the derived keys (identify.order: stabilization, max_order) of a complete config
+    cfg = validate(merge(cfg, {"spectra": {"signal": "torque_meter"}}))
+    s = cfg["identify"]
+    orders, source = stabilization_orders(ds, "pbsid", [p["name"] for p in s["pairings"]],
+                                          "chain.nc")
+    out = identify_record(cfg, record, None, None, "pbsid", {}, orders=orders,
+                          order_source=source, line_orders=truth.orders)
+    status = out.status.values
+    assert (status == "ok").any(), list(zip(status, out.reason.values, strict=True))
+    a, b, c, d = oc.plant(oc.chain())
+    f = out.frequency.values
+    g_true = np.array([c @ np.linalg.solve(2j * np.pi * fk * np.eye(len(a)) - a, b[:, :1])
+                       + d[:, :1] for fk in f])
+    for m in np.flatnonzero(status == "ok"):
+        assert np.nanmin(out.fit.values[m]) >= s["fit_min"]
+        band = f <= float(out.match_bandwidth.values[m])
+        g_id = (out.frf_identified_real.values[m] + 1j * out.frf_identified_imag.values[m])
+        err_db = np.abs(20 * np.log10(np.abs(g_id[band]) / np.abs(g_true[band])))
+        # the band is judged against the nonparametric estimate where it is coherent:
+        # against the truth, the median point must lie within the tolerance
+        assert np.median(err_db) <= s["tolerance_db"], (m, np.median(err_db))

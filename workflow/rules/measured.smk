@@ -148,6 +148,9 @@ rule identify_measured:
         # measured.<record>.validation: the held-out window [s] per record (None: chosen)
         windows=lambda w: [SPECS[r].validation for r in _unit_records(w)],
         group=lambda w: w.record if w.record in GROUPS else "",
+        # measured.<record>.orders: no model is judged on these order lines (a group:
+        # every repeat's)
+        line_orders=lambda w: sorted({k for r in _unit_records(w) for k in SPECS[r].orders}),
     output:
         nc=f"{RESULTS}/identify/measured/{{record}}_{{method}}.nc",
     log:

@@ -23,10 +23,12 @@ if par.group:  # the repeats of one test, pooled
     for rec in records:
         rec.attrs["group"] = par.group
     ds = identify_record(cfg, records, None, None, w.method, removed, orders=orders,
-                         order_source=provenance, validation_window=windows)
+                         order_source=provenance, validation_window=windows,
+                         line_orders=par.line_orders)
 else:
     ds = identify_record(cfg, records[0], None, None, w.method, removed[0], orders=orders,
-                         order_source=provenance, validation_window=windows[0])
+                         order_source=provenance, validation_window=windows[0],
+                         line_orders=par.line_orders)
 io.write(ds, snakemake.output.nc, sources=snakemake.input, stage="identify_measured",
          config=cfg, wildcards={"record": w.record, "method": w.method},
          title=f"{w.method} models of bench record {w.record} vs its nonparametric FRF")

@@ -24,6 +24,7 @@ from gbpipe.identify.bench_data import bench_data, bench_sources
 from gbpipe.identify.checks import check_signals
 from gbpipe.identify.dataset import models_dataset
 from gbpipe.identify.fitting import METHODS, fit_model, fit_with_bounds, validation_fit
+from gbpipe.identify.harmonic_lines import label_poles, record_harmonic_bands
 from gbpipe.identify.metrics import identified_modes, match_modes
 from gbpipe.identify.orders import row_order
 from gbpipe.identify.prepare import ConditionedRecord
@@ -82,8 +83,8 @@ def identify_record(cfg: Mapping[str, Any], record: xr.Dataset,
     """Identify every configured pairing x data version of one record with one method.
 
     :func:`identify_methods` with ``methods=(method,)`` (``kwargs``: its ``orders``,
-    ``order_source``, ``validation_window``); the parameters, return value and errors are
-    those of one of its methods.
+    ``order_source``, ``validation_window``, ``line_orders``); the parameters, return
+    value and errors are those of one of its methods.
     """
     return identify_methods(cfg, record, validation, truth, (method,), removed,
                             **kwargs)[method]
@@ -97,8 +98,8 @@ def identify_methods(cfg: Mapping[str, Any], record: xr.Dataset | Sequence[xr.Da
                      orders: Mapping[str, int] | None = None,
                      order_source: Mapping[str, str] | None = None,
                      validation_window: tuple[float, float]
-                     | Sequence[tuple[float, float] | None] | None = None
-                     ) -> dict[str, xr.Dataset]:
+                     | Sequence[tuple[float, float] | None] | None = None,
+                     line_orders: Sequence[float] = ()) -> dict[str, xr.Dataset]:
     """Identify every configured pairing x data version of one record with each method.
 
     Parameters
@@ -138,6 +139,12 @@ def identify_methods(cfg: Mapping[str, Any], record: xr.Dataset | Sequence[xr.Da
         the record holding ``identify.holdout_power_min`` of the inputs' band power
         (:mod:`gbpipe.identify.windows`). The operating point of such a record is its mean
         before the inputs' first excitation (at most ``campaign.settle``).
+    line_orders : sequence of float, optional
+        A bench record's excitation orders of its tacho shaft (``measured.<record>.
+        orders``) besides the shaft harmonics ``1 .. identify.stabilization.
+        shaft_harmonics``. Without a truth, the nonparametric reference does not judge a
+        model inside these lines' bands over the record's speed range: a line that
+        reaches input and output biases the estimate there, whatever its coherence.
 
     Returns
     -------
@@ -223,7 +230,8 @@ def identify_methods(cfg: Mapping[str, Any], record: xr.Dataset | Sequence[xr.Da
             else:
                 u, y = conditioned[0](p["inputs"], version), conditioned[0](p["outputs"], version)
                 uv, yv = [val(p["inputs"], version)], [val(p["outputs"], version)]
-            ref = ref_truth or nonparametric_reference(u, y, fs_id, s, r)
+            ref = ref_truth or _off_lines(nonparametric_reference(u, y, fs_id, s, r),
+                                          records, line_orders, s)
             rows.append((p, version, (u, y, uv, yv), ref))
 
     # every method on one row before the next row: MOESP and N4SID of one data set share its
@@ -237,6 +245,33 @@ def identify_methods(cfg: Mapping[str, Any], record: xr.Dataset | Sequence[xr.Da
             results[method].append({**res, "order_source": source})
     return {method: _method_dataset(method, results[method], dt, s, records, validation, notes)
             for method in methods}
+
+
+def _line_mask(frequency: np.ndarray, records: Sequence[xr.Dataset],
+              line_orders: Sequence[float], s: Mapping[str, Any]) -> np.ndarray:
+    """True where a frequency [Hz] lies on an order line of any of ``records``.
+
+    The bands are :func:`gbpipe.identify.harmonic_lines.record_harmonic_bands` of each
+    record's tachometer (none without one), widened by the main-lobe half-width of the
+    nonparametric estimate's Hann window, ``2 / segment``: that far a line leaks into the
+    Welch estimate.
+    """
+    resolution = 2.0 / float(s["nonparametric"]["segment"])
+    on = np.zeros(np.shape(frequency), dtype=bool)
+    for rec in records:
+        if "pulse_time" not in rec and not len(line_orders):
+            continue  # no tacho, no listed orders: no lines to place
+        bands = record_harmonic_bands(rec, line_orders, resolution,
+                                      s["stabilization"]["shaft_harmonics"], s["frf"]["f_max"])
+        on |= label_poles(frequency, bands) == "harmonic"
+    return on
+
+
+def _off_lines(ref: Reference, records: Sequence[xr.Dataset], line_orders: Sequence[float],
+               s: Mapping[str, Any]) -> Reference:
+    # the nonparametric reference judges nothing on an order line (see line_orders)
+    return ref._replace(assessable=ref.assessable & ~_line_mask(ref.frequency, records,
+                                                               line_orders, s))
 
 
 def _identify_row(method: str, p: Mapping[str, Any], version: str,
