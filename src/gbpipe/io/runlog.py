@@ -2,10 +2,41 @@
 
 from __future__ import annotations
 
+import atexit
 import logging
+import os
+import re
+import resource
 import sys
+from pathlib import Path
 
-__all__ = ["setup_log"]
+__all__ = ["PEAK_LINE", "job_resources", "setup_log"]
+
+#: The last line of every job log: the job's own peak resident memory [MB] and CPU time
+#: [s] (kernel accounting of the script process and its children, read when it exits; not
+#: a sampler's, so a short job is measured as well as a long one).
+PEAK_LINE = "job resources: peak memory {rss_mb:.1f} MB, CPU {cpu_s:.2f} s"
+
+
+_PEAK_RE = re.compile(re.escape(PEAK_LINE).replace(r"\{rss_mb:\.1f\}", r"([0-9.]+)")
+                      .replace(r"\{cpu_s:\.2f\}", r"([0-9.]+)"))
+
+
+def job_resources(logfile: str | os.PathLike) -> tuple[float, float] | None:
+    """The peak memory [MB] and CPU time [s] a job logged (:data:`PEAK_LINE`), or None
+    when its log has no such line (the job was killed, or never set up its log)."""
+    found = _PEAK_RE.findall(Path(logfile).read_text(errors="replace"))
+    return (float(found[-1][0]), float(found[-1][1])) if found else None
+
+
+def _log_resources(logger: logging.Logger) -> None:
+    """Log :data:`PEAK_LINE` for this process (runs at interpreter exit)."""
+    usage = [resource.getrusage(who) for who in (resource.RUSAGE_SELF,
+                                                 resource.RUSAGE_CHILDREN)]
+    # ru_maxrss is in KiB on Linux
+    rss_mb = max(u.ru_maxrss for u in usage) * 1024 / 1e6
+    cpu_s = sum(u.ru_utime + u.ru_stime for u in usage)
+    logger.info(PEAK_LINE.format(rss_mb=rss_mb, cpu_s=cpu_s))
 
 
 def setup_log(logfile: str | None = None, name: str = "gbpipe") -> logging.Logger:
@@ -14,7 +45,8 @@ def setup_log(logfile: str | None = None, name: str = "gbpipe") -> logging.Logge
     Python warnings (e.g. a joint TSA that stopped at its best pass) go to the same
     handlers, as WARNING records of the ``py.warnings`` logger: the job's log says what
     the numbers rest on. (Through the root logger they could be lost: Snakemake's script
-    preamble configures logging of its own.)
+    preamble configures logging of its own.) With a ``logfile``, the job's peak memory
+    and CPU time (:data:`PEAK_LINE`) are logged when the process exits.
     """
     logger = logging.getLogger(name)
     logger.setLevel(logging.INFO)
@@ -31,4 +63,7 @@ def setup_log(logfile: str | None = None, name: str = "gbpipe") -> logging.Logge
     for h in handlers:
         h.setFormatter(fmt)
     logging.captureWarnings(True)
+    if logfile:
+        # registered after logging's own exit handler, so it runs before the files close
+        atexit.register(_log_resources, logger)
     return logger
