@@ -15,7 +15,9 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
-__all__ = ["MODE_TOLERANCE", "models_dataset", "model_matrices", "pad"]
+from gbpipe.lti import pad
+
+__all__ = ["MODE_TOLERANCE", "models_dataset", "model_matrices"]
 
 #: Relative distance [-] within which an identified mode matches a true one (stored as the
 #: ``mode_tolerance`` attribute, which the table reads).
@@ -107,13 +109,6 @@ def frf_units(record: xr.Dataset, results: Sequence[Mapping[str, Any]]) -> str:
     if (out, inp) == ("rad/s", "N m"):
         return _FRF_UNITS
     return f"({out})/({inp})"
-
-
-def pad(a: np.ndarray, shape: tuple[int, ...]) -> np.ndarray:
-    """``a`` in the leading corner of a NaN array of ``shape`` (models of unequal size)."""
-    out = np.full(shape, np.nan)
-    out[tuple(slice(0, n) for n in a.shape)] = a
-    return out
 
 
 def models_dataset(results: Sequence[Mapping[str, Any]], dt: float, method: str,
