@@ -27,10 +27,11 @@ CONFIG, CI_CONFIG = ROOT / "config" / "config.yaml", ROOT / "config" / "ci.yaml"
 IDS = [c[0] for c in CASES]
 
 
-def test_table_is_large_and_distinct():
-    assert len(CASES) >= 60
-    assert len(set(IDS)) == len(IDS)
-    assert len({c[1] for c in CASES}) >= 8
+def test_the_base_every_case_changes_is_accepted():
+    # the control: without an overlay the same load succeeds, so each refusal below is
+    # the overlay's doing, not the base's
+    cfg = load(CONFIG, CI_CONFIG)
+    assert cfg["campaign"]["tests"] == ["speed_up", "speed_down"]
 
 
 @pytest.mark.parametrize(("overlay", "field"), [c[2:] for c in CASES], ids=IDS)

@@ -129,10 +129,51 @@ def test_named_io_and_closed_loop_steady_state(cfg):
     assert gain("torque_lss_shaft", it) == pytest.approx(ratio, rel=1e-6)
 
 
-def test_elastic_mount_adds_housing_mode(cfg):
-    fixed, _ = model.gearbox_mechanism(validate(merge(cfg, FIXED)))
+def _housing_on_mounts(gb: dict) -> np.ndarray:
+    """Undamped frequencies [Hz] of one gearbox whose housing sits on its mounts, by hand.
+
+    Coordinates: housing angle h, each stage's input member (carrier or wheel, which
+    carries the stage's lumped inertia) and the flange. The gears are rigid relative to
+    the housing (Willis): a planetary sun turns at ``(1 + Zr/Zs)·a − (Zr/Zs)·h``, a
+    parallel pinion at ``h + (Zw/Zp)·(a − h)``. Shaft i twists between stage i's output
+    member and the next input member; the mount twists by h. Then ``K v = ω² M v``.
+    """
+    stages, n = gb["stages"], len(gb["stages"])
+    M = np.diag([gb["housing"]["inertia"], *gb["inertia"]])       # h, a_1 … a_n, flange
+    K = np.zeros_like(M)
+    for i, st in enumerate(stages):
+        g = np.zeros(n + 2)               # twist of shaft i = g · q
+        g[i + 2] = 1.0                    # next input member (or the flange)
+        if st["type"] == "planetary":
+            rs = st["ring"] / st["sun"]
+            g[i + 1], g[0] = -(1 + rs), rs
+        else:
+            r = st["wheel"] / st["pinion"]
+            g[i + 1], g[0] = -r, -(1 - r)
+        K += gb["stiffness"][i] * np.outer(g, g)
+    K[0, 0] += gb["housing"]["stiffness"]
+    w2 = eigh(K, M, eigvals_only=True)
+    return np.sqrt(w2[w2 > 1e-6 * w2.max()]) / (2 * np.pi)
+
+
+def test_elastic_mount_adds_the_housing_mode_of_the_readme(cfg):
+    gb = cfg["gearbox"]
+    assert gb["housing"]["mount"] == "elastic" and all(
+        isinstance(j, float) for j in gb["inertia"])   # lumped inertias: the hand model's
+    by_hand = _housing_on_mounts(gb)
     elastic, _ = model.gearbox_mechanism(cfg)
-    assert elastic.undamped_frequencies().size == fixed.undamped_frequencies().size + 1
+    fixed, _ = model.gearbox_mechanism(validate(merge(cfg, FIXED)))
+    np.testing.assert_allclose(elastic.undamped_frequencies(), by_hand, rtol=1e-6)
+    assert by_hand.size == fixed.undamped_frequencies().size + 1
+    # README / docs/architecture.md, "Physics": a housing mode at 27.8 Hz, the first
+    # stage mode moved from 103.5 to 124.9 Hz
+    assert by_hand[0] == pytest.approx(27.8, abs=0.05)
+    assert by_hand[1] == pytest.approx(124.9, abs=0.05)
+    # the housing mode is the mount's: a 4x stiffer mount doubles it nearly (the gear
+    # chain adds its own flexibility in series, so a little less than double)
+    stiff = _housing_on_mounts({**gb, "housing": {**gb["housing"],
+                                                  "stiffness": 4 * gb["housing"]["stiffness"]}})
+    assert 1.5 * by_hand[0] < stiff[0] < 2.0 * by_hand[0]
 
 
 @pytest.mark.parametrize("which", ["cfg", "cfg_example"])
