@@ -12,6 +12,7 @@ from gbpipe import kinematics, model
 from gbpipe.config import merge, validate
 from gbpipe.lti import frf, modes
 from gbpipe.model.control_models import bench
+from tests.model import hand_models
 
 FIXED = {"gearbox": {"housing": {"mount": "fixed"}}}
 
@@ -130,30 +131,15 @@ def test_named_io_and_closed_loop_steady_state(cfg):
 
 
 def _housing_on_mounts(gb: dict) -> np.ndarray:
-    """Undamped frequencies [Hz] of one gearbox whose housing sits on its mounts, by hand.
+    """Undamped frequencies [Hz] of one gearbox on its mounts, assembled by hand."""
+    return hand_models.frequencies(*hand_models.gearbox_matrices(gb))
 
-    Coordinates: housing angle h, each stage's input member (carrier or wheel, which
-    carries the stage's lumped inertia) and the flange. The gears are rigid relative to
-    the housing (Willis): a planetary sun turns at ``(1 + Zr/Zs)·a − (Zr/Zs)·h``, a
-    parallel pinion at ``h + (Zw/Zp)·(a − h)``. Shaft i twists between stage i's output
-    member and the next input member; the mount twists by h. Then ``K v = ω² M v``.
-    """
-    stages, n = gb["stages"], len(gb["stages"])
-    M = np.diag([gb["housing"]["inertia"], *gb["inertia"]])       # h, a_1 … a_n, flange
-    K = np.zeros_like(M)
-    for i, st in enumerate(stages):
-        g = np.zeros(n + 2)               # twist of shaft i = g · q
-        g[i + 2] = 1.0                    # next input member (or the flange)
-        if st["type"] == "planetary":
-            rs = st["ring"] / st["sun"]
-            g[i + 1], g[0] = -(1 + rs), rs
-        else:
-            r = st["wheel"] / st["pinion"]
-            g[i + 1], g[0] = -r, -(1 - r)
-        K += gb["stiffness"][i] * np.outer(g, g)
-    K[0, 0] += gb["housing"]["stiffness"]
-    w2 = eigh(K, M, eigvals_only=True)
-    return np.sqrt(w2[w2 > 1e-6 * w2.max()]) / (2 * np.pi)
+
+def test_bench_modes_equal_the_hand_assembled_bench(cfg):
+    mech, _ = model.bench_mechanism(cfg)
+    np.testing.assert_allclose(mech.undamped_frequencies(),
+                               hand_models.frequencies(*hand_models.bench_matrices(cfg)),
+                               rtol=1e-6)
 
 
 def test_elastic_mount_adds_the_housing_mode_of_the_readme(cfg):
