@@ -1,6 +1,7 @@
 """The fit stage through the workflow: on the CI run (the records simulate the config's
-bench; the fit starts 20 % off it, config/ci.yaml fit.start, and must come back) and on a bench perturbed by +-30 % that the fit must find
-from the nominal config (config/examples/fit_perturbed.yaml, on the CI's shorter records).
+bench; the fit starts 20 % off it, config/ci.yaml fit.start, and must come back) and on
+a bench perturbed by +-30 % that the fit must find from the nominal config
+(config/examples/fit_perturbed.yaml, on the CI's shorter records).
 """
 
 from __future__ import annotations
