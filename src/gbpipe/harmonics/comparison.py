@@ -4,7 +4,8 @@ by the exact separation metric.
 * :func:`method_params` -- a method's keyword arguments from the ``removal`` config
   section, fitted to the families at hand;
 * :func:`compare_method` -- rule ``removal``: one method on the sweep and on its known
-  harmonic part, its wall time, and :func:`gbpipe.harmonics.separation_metrics` against
+  harmonic part (its wall time and memory logged), and
+  :func:`gbpipe.harmonics.separation_metrics` against
   the random-only sweep;
 * :func:`removal_rows` -- rule ``removal_table``: one row per method x family x rpm bin x
   band;
