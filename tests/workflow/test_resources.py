@@ -12,6 +12,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from gbpipe.io.runlog import PEAK_LINE, job_resources
@@ -166,14 +167,24 @@ def test_every_rule_has_a_log_path_of_its_own():
         assert [r for r, p in patterns.items() if p.fullmatch(path)] == [rule], path
 
 
-def test_a_job_logs_its_own_peak_memory_at_exit(tmp_path):
-    # a process that holds 300 MB of float64 must log at least that much, whatever the load
-    log = tmp_path / "job.log"
+def _job(log: Path, allocate_mb: int, **popen) -> tuple[float, float]:
+    """Run a job that sets up its log and holds ``allocate_mb`` MB; what it logged."""
     code = ("import sys, numpy as np\nfrom gbpipe.io import setup_log\n"
-            "setup_log(sys.argv[1])\nx = np.ones(300 * 125_000)\nx[::512] = 2.0\n")
-    subprocess.run([sys.executable, "-c", code, str(log)], check=True, capture_output=True)
-    rss, cpu = job_resources(log)
+            "setup_log(sys.argv[1])\nx = np.ones(int(sys.argv[2]) * 125_000)\n")
+    subprocess.run([sys.executable, "-c", code, str(log), str(allocate_mb)], check=True,
+                   capture_output=True, cwd=log.parent, **popen)
+    return job_resources(log)
+
+
+def test_a_job_logs_its_own_peak_memory_at_exit(tmp_path):
+    # a process that holds 300 MB of float64 logs at least that much, whatever the load
+    rss, cpu = _job(tmp_path / "big.log", 300)
     assert 300.0 < rss < 1000.0 and cpu >= 0.0
+    # a small job forked (as Snakemake starts its jobs) from a parent holding 600 MB
+    # logs its own peak, not the parent's (which getrusage's ru_maxrss would carry over)
+    parent = np.ones(600 * 125_000)
+    small, _ = _job(tmp_path / "small.log", 0, preexec_fn=lambda: None)
+    assert parent.sum() > 0 and small < 300.0 < rss
 
 
 def test_several_results_folders_count_together(tmp_path):

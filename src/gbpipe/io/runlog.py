@@ -13,8 +13,8 @@ from pathlib import Path
 __all__ = ["PEAK_LINE", "job_resources", "setup_log"]
 
 #: The last line of every job log: the job's own peak resident memory [MB] and CPU time
-#: [s] (kernel accounting of the script process and its children, read when it exits; not
-#: a sampler's, so a short job is measured as well as a long one).
+#: [s] (kernel accounting of the script process, read when it exits; not a sampler's, so
+#: a short job is measured as well as a long one).
 PEAK_LINE = "job resources: peak memory {rss_mb:.1f} MB, CPU {cpu_s:.2f} s"
 
 
@@ -29,14 +29,28 @@ def job_resources(logfile: str | os.PathLike) -> tuple[float, float] | None:
     return (float(found[-1][0]), float(found[-1][1])) if found else None
 
 
+def _peak_rss_mb() -> float:
+    """Peak resident memory of this process [MB].
+
+    Linux's ``VmHWM`` belongs to the process image, so it starts afresh at ``exec``.
+    ``ru_maxrss`` does not: it keeps what the forking parent had resident (a Snakemake
+    job's script would report Snakemake's ~250 MB), so it is only the fallback where
+    ``/proc`` is missing.
+    """
+    try:
+        with open("/proc/self/status") as fh:
+            for line in fh:
+                if line.startswith("VmHWM:"):
+                    return float(line.split()[1]) * 1024 / 1e6      # kB
+    except OSError:
+        pass
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024 / 1e6
+
+
 def _log_resources(logger: logging.Logger) -> None:
     """Log :data:`PEAK_LINE` for this process (runs at interpreter exit)."""
-    usage = [resource.getrusage(who) for who in (resource.RUSAGE_SELF,
-                                                 resource.RUSAGE_CHILDREN)]
-    # ru_maxrss is in KiB on Linux
-    rss_mb = max(u.ru_maxrss for u in usage) * 1024 / 1e6
-    cpu_s = sum(u.ru_utime + u.ru_stime for u in usage)
-    logger.info(PEAK_LINE.format(rss_mb=rss_mb, cpu_s=cpu_s))
+    usage = resource.getrusage(resource.RUSAGE_SELF)
+    logger.info(PEAK_LINE.format(rss_mb=_peak_rss_mb(), cpu_s=usage.ru_utime + usage.ru_stime))
 
 
 def setup_log(logfile: str | None = None, name: str = "gbpipe") -> logging.Logger:
