@@ -14,11 +14,13 @@ from tests.workflow.runs import snakemake
 
 #: When a file was written: the only attributes allowed to differ between two runs.
 WHEN = ("created", "history")
-#: The stages run again (their inputs kept): the harmonic-removal comparison, which timed
-#: its methods into its results, the kinematics and the model, with the removal caption.
-AGAIN = ("results/kinematics/frequencies.nc", "results/model/gearbox.nc",
-         "results/model/bench.nc", "results/model/truth.nc", "results/removal/*.nc",
-         "results/report/fig_removal_tradeoff.rst")
+#: The stages run again (their inputs kept), one group after the other: the harmonic-removal
+#: comparison, which timed its methods into its results, with its caption and the
+#: kinematics; then the model. (Not in one group: a rerun model file differs in its
+#: `created` bytes, hence in its SHA-256 in the removal files' `source_files`.)
+AGAIN = (("results/kinematics/frequencies.nc", "results/removal/*.nc",
+          "results/report/fig_removal_tradeoff.rst"),
+         ("results/model/gearbox.nc", "results/model/bench.nc", "results/model/truth.nc"))
 
 
 def _same(a: xr.Dataset, b: xr.Dataset, name: str) -> None:
@@ -34,17 +36,20 @@ def _same(a: xr.Dataset, b: xr.Dataset, name: str) -> None:
 
 def test_the_same_config_gives_the_same_files(ci_run, tmp_path):
     again = shutil.copytree(ci_run, tmp_path / "again", symlinks=True)
-    files = sorted({p.relative_to(ci_run) for pattern in AGAIN
-                    for p in ci_run.glob(pattern)})
-    assert len([f for f in files if f.suffix == ".nc"]) >= 6, files
-    for f in files:
-        (again / f).unlink()
-    snakemake(again, "--", *map(str, files))
-    for f in files:
-        if f.suffix == ".rst":
-            assert (again / f).read_text() == (ci_run / f).read_text(), f
-            continue
-        # the file as stored (no decoding): what a reader of either run gets
-        with (xr.open_dataset(ci_run / f, decode_cf=False) as a,
-              xr.open_dataset(again / f, decode_cf=False) as b):
-            _same(a.load(), b.load(), str(f))
+    checked = 0
+    for group in AGAIN:
+        files = sorted({p.relative_to(ci_run) for pattern in group
+                        for p in ci_run.glob(pattern)})
+        for f in files:
+            (again / f).unlink()
+        snakemake(again, "--", *map(str, files))
+        for f in files:
+            if f.suffix == ".rst":
+                assert (again / f).read_text() == (ci_run / f).read_text(), f
+                continue
+            # the file as stored (no decoding): what a reader of either run gets
+            with (xr.open_dataset(ci_run / f, decode_cf=False) as a,
+                  xr.open_dataset(again / f, decode_cf=False) as b):
+                _same(a.load(), b.load(), str(f))
+            checked += 1
+    assert checked >= 8   # kinematics, five removal methods, three model files
