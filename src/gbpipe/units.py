@@ -8,24 +8,13 @@ from __future__ import annotations
 
 import math
 
-__all__ = ["RAD_S_PER_RPM", "RPM_PER_RAD_S", "TWO_PI", "rpm_to_rad_s", "rad_s_to_rpm",
-           "squared_units"]
+__all__ = ["RAD_S_PER_RPM", "RPM_PER_RAD_S", "TWO_PI", "squared_units"]
 
 TWO_PI = 2.0 * math.pi
 #: rad/s per rev/min
 RAD_S_PER_RPM = TWO_PI / 60.0
 #: rev/min per rad/s
 RPM_PER_RAD_S = 60.0 / TWO_PI
-
-
-def rpm_to_rad_s(rpm: float):
-    """Shaft speed in rev/min → rad/s (works element-wise on arrays)."""
-    return rpm * RAD_S_PER_RPM
-
-
-def rad_s_to_rpm(omega: float):
-    """Shaft speed in rad/s → rev/min (works element-wise on arrays)."""
-    return omega * RPM_PER_RAD_S
 
 
 def squared_units(units: str) -> str:

@@ -42,6 +42,9 @@ CLUSTER = "gbpipe"
 #: Where srun looks for the configuration when ``SLURM_CONF`` is unset: Snakemake's
 #: jobstep executor unsets every ``SLURM_*`` variable before it calls srun inside a job.
 DEFAULT_CONF = Path("/etc/slurm/slurm.conf")
+#: Seconds any start-up wait gives a daemon to answer: each wait ends as soon as the
+#: daemon answers, so only a hang reaches this, never a loaded machine.
+HANG_S = 900.0
 #: Memory controller of a cgroup v1 hierarchy (what SLURM 22.05 uses without systemd).
 CGROUP_V1_MEMORY = Path("/sys/fs/cgroup/memory")
 
@@ -147,8 +150,11 @@ class LocalSlurm:
         return proc
 
     # ------------------------------------------------------------------ start-up
-    def start(self, timeout: float = 120.0) -> dict[str, float]:
+    def start(self, timeout: float = HANG_S) -> dict[str, float]:
         """Start every daemon, register the cluster, wait for the idle node.
+
+        Each wait is on the daemon's answer; ``timeout`` [s] only ends a hang (a loaded
+        machine takes longer, never fails).
 
         Returns the seconds of each step. On any failure, stops what was started.
         """
@@ -257,7 +263,7 @@ class LocalSlurm:
                     f"--key-file={key}", f"--socket={r / 'munge.sock'}",
                     f"--pid-file={r / 'munged.pid'}", f"--seed-file={r / 'munge.seed'}",
                     f"--log-file={r / 'log/munged.log'}")
-        self._wait(lambda: (r / "munge.sock").exists(), 30, "munged's socket")
+        self._wait(lambda: (r / "munge.sock").exists(), HANG_S, "munged's socket")
 
     def _mysql(self, sql: str) -> None:
         subprocess.run(["mariadb", "--no-defaults", f"--socket={self.root / 'mysql.sock'}",
@@ -276,7 +282,7 @@ class LocalSlurm:
                     "--innodb-log-file-size=16M", "--skip-log-bin")
         self._wait(lambda: subprocess.run(
             ["mariadb-admin", "--no-defaults", f"--socket={r / 'mysql.sock'}", "ping"],
-            capture_output=True).returncode == 0, 60, "mariadbd answering ping")
+            capture_output=True).returncode == 0, HANG_S, "mariadbd answering ping")
         self._mysql("CREATE DATABASE slurm_acct_db; "
                     f"CREATE USER 'slurm'@'127.0.0.1' IDENTIFIED BY '{self.db_password}'; "
                     "GRANT ALL ON slurm_acct_db.* TO 'slurm'@'127.0.0.1';")

@@ -22,8 +22,9 @@ from slurm_local import LocalSlurm
 from slurm_runs import last_job_id, slurm_jobs, snakemake_on_slurm
 
 SNAKEFILE = Path(__file__).parent / "retry" / "Snakefile"
-#: Seconds the watcher waits for the first ``cancelled`` job to run.
-WATCH_TIMEOUT = 300.0
+#: Seconds the watcher waits for the first ``cancelled`` job to run: only a hang reaches
+#: it, however loaded the machine (the watcher acts on the job's state, not on time).
+WATCH_TIMEOUT = 1800.0
 
 
 def _scancel_first_attempt(cluster: LocalSlurm, work: Path, stop: threading.Event,

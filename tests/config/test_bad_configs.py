@@ -27,10 +27,11 @@ CONFIG, CI_CONFIG = ROOT / "config" / "config.yaml", ROOT / "config" / "ci.yaml"
 IDS = [c[0] for c in CASES]
 
 
-def test_table_is_large_and_distinct():
-    assert len(CASES) >= 60
-    assert len(set(IDS)) == len(IDS)
-    assert len({c[1] for c in CASES}) >= 8
+def test_the_base_every_case_changes_is_accepted():
+    # the control: without an overlay the same load succeeds, so each refusal below is
+    # the overlay's doing, not the base's
+    cfg = load(CONFIG, CI_CONFIG)
+    assert cfg["campaign"]["tests"] == ["speed_up", "speed_down"]
 
 
 @pytest.mark.parametrize(("overlay", "field"), [c[2:] for c in CASES], ids=IDS)
@@ -57,7 +58,8 @@ def snakemake_runs(tmp_path_factory):
     (base / "cases.json").write_text(json.dumps(cases))
     env = {**os.environ, "OMP_NUM_THREADS": "1"}
     subprocess.run([sys.executable, str(HERE / "snakemake_batch.py"), str(base / "cases.json"),
-                    str(base / "codes.json")], check=True, env=env, timeout=600)
+                    str(base / "codes.json")], check=True, env=env,
+                   timeout=3600)  # a hang guard only: ~70 dry runs on a loaded machine
     codes = json.loads((base / "codes.json").read_text())
     return {cid: (code, (base / cid / "stderr").read_text() + (base / cid / "stdout").read_text(),
                   (base / cid / "results").exists())
@@ -80,7 +82,7 @@ def test_batch_runner_equals_the_snakemake_command(snakemake_runs, tmp_path):
     (tmp_path / "bad.yaml").write_text(yaml.safe_dump(overlay))
     run = subprocess.run(["snakemake", "-n", "--cores", "1", "--configfile", "config/ci.yaml",
                           "bad.yaml"], cwd=tmp_path, capture_output=True, text=True,
-                         timeout=120)
+                         timeout=1800)  # a hang guard only
     assert (run.returncode != 0) == (snakemake_runs[cid][0] != 0)
     # Snakemake logs its error to stdout or stderr depending on its log handler: both count
     assert f"config field '{field}'" in run.stdout + run.stderr

@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 from gbpipe import identify
+from gbpipe.figures import design_plots
 from gbpipe.figures.design_plots import design_numbers, fig_design
 
 
@@ -28,10 +29,14 @@ def test_predicted_band_is_the_last_grid_point_below_the_excitation_edge():
     assert float(ds.predicted_hz[0]) == pytest.approx(f[f < 100.0][-1])
 
 
-def test_caption_numbers_pair_prediction_and_achievement(tmp_path):
+def test_caption_numbers_pair_prediction_and_achievement(tmp_path, monkeypatch):
     designs = {"a square": _design(100.0), "b tapered": _design(200.0)}
     achieved = {("a square", "p"): 80.0}
     stem, caption = tmp_path / "fig_design", tmp_path / "fig_design.rst"
+    figures = []
+    save = design_plots.save
+    monkeypatch.setattr(design_plots, "save",
+                        lambda fig, stem: figures.append(fig) or save(fig, stem))
     numbers = fig_design(designs, stem, caption, achieved)
     pa = float(designs["a square"].predicted_hz[0])
     pb = float(designs["b tapered"].predicted_hz[0])
@@ -39,9 +44,16 @@ def test_caption_numbers_pair_prediction_and_achievement(tmp_path):
     assert numbers["b tapered, p"] == f"predicted {pb:.0f} Hz"
     text = caption.read_text()
     assert f"a square, p: predicted {pa:.0f} Hz" in text and "b tapered" in text
-    # a real drawing (PNG signature, more than a blank canvas's bytes) and its PDF
-    png = (tmp_path / "fig_design.png").read_bytes()
-    assert png[:8] == b"\x89PNG\r\n\x1a\n" and len(png) > 20_000
+    # what is drawn: one bar per test as long as its predicted band, the achieved band
+    # as a tick at 80 Hz on the first test's bar; the right panel is the test with the
+    # widest band (b tapered), with the 1 dB tolerance
+    bars_ax, err_ax = figures[0].axes[:2]
+    widths = sorted(p.get_width() for p in bars_ax.patches)
+    assert widths == pytest.approx(sorted([pa, pb]))
+    ticks = [ln.get_xdata() for ln in bars_ax.lines if ln.get_marker() == "|"]
+    assert [list(np.asarray(t)[np.isfinite(t)]) for t in ticks] == [[80.0], []]
+    assert "b tapered" in err_ax.get_title()
+    assert any(np.allclose(ln.get_ydata(), 1.0) for ln in err_ax.lines)
     assert (tmp_path / "fig_design.pdf").read_bytes()[:5] == b"%PDF-"
 
 

@@ -4,9 +4,10 @@ from __future__ import annotations
 
 import re
 
+import numpy as np
 import pytest
 
-from gbpipe.figures.style import DEFAULT_FORMATS, formats, new, save
+from gbpipe.figures.style import DEFAULT_FORMATS, db, formats, new, save
 
 
 def _figure():
@@ -50,3 +51,13 @@ def test_formats_without_png_or_unknown_are_refused(bad):
     with pytest.raises(ValueError, match="figure formats must be distinct names"):
         with formats(bad):
             pass
+
+
+def test_db_of_amplitudes_and_powers():
+    # 20 log10 |x| of an amplitude (complex: its modulus), 10 log10 of a power
+    np.testing.assert_allclose(db(np.array([10.0, -0.1, 3.0 + 4.0j])), [20.0, -20.0,
+                                                                          20 * np.log10(5.0)])
+    np.testing.assert_allclose(db(np.array([100.0, 1e-3]), power=True), [20.0, -30.0])
+    # zero stays finite, below any plotted range
+    assert np.isfinite(db(0.0)) and db(0.0) < -1000.0
+

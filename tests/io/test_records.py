@@ -45,4 +45,8 @@ def test_longest_segment_cuts_time_and_pulses():
     assert np.allclose(out.torque.values, np.sin(np.arange(300, 900) / 100.0))
     # pulses inside [3.00, 8.99] s, shifted to the segment's start
     assert np.allclose(out.pulse_time.values, np.arange(3.05, 8.99, 0.1) - 3.0)
-    assert longest_segment(_record()) is not None and "segment_used" in out.attrs
+    assert out.attrs["segment_used"] == ("longest of 3 gap-free segments: 600 samples "
+                                         "from 3 s")
+    # a record that was never split is returned as it is
+    whole = _record()
+    xr.testing.assert_identical(longest_segment(whole), whole)

@@ -13,7 +13,7 @@ import scipy.linalg
 import scipy.signal
 from lti_systems import ill_conditioned
 
-from gbpipe.lti import NamedSS, fit_percent, frf, modes
+from gbpipe.lti import NamedSS, fit_percent, frf, modes, pad
 from gbpipe.lti.control_io import from_control, to_control
 
 
@@ -120,3 +120,14 @@ def test_lti_does_not_import_control():
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          check=True)
     assert out.stdout.strip() == "False"
+
+
+def test_pad_puts_a_smaller_model_in_the_corner_of_nan():
+    g = np.arange(6).reshape(1, 2, 3) * (1 + 1j)          # a complex FRF keeps its phase
+    out = pad(g, (1, 3, 4))
+    assert out.dtype == complex and out.shape == (1, 3, 4)
+    np.testing.assert_array_equal(out[:, :2, :3], g)
+    assert np.isnan(out[:, 2, :]).all() and np.isnan(out[:, :, 3]).all()
+    ints = pad(np.array([1, 2]), (3,))                     # integers become float
+    assert ints.dtype == float and ints[:2].tolist() == [1.0, 2.0] and np.isnan(ints[2])
+

@@ -12,6 +12,7 @@ from gbpipe import kinematics, model
 from gbpipe.config import merge, validate
 from gbpipe.lti import frf, modes
 from gbpipe.model.control_models import bench
+from tests.model import hand_models
 
 FIXED = {"gearbox": {"housing": {"mount": "fixed"}}}
 
@@ -129,10 +130,36 @@ def test_named_io_and_closed_loop_steady_state(cfg):
     assert gain("torque_lss_shaft", it) == pytest.approx(ratio, rel=1e-6)
 
 
-def test_elastic_mount_adds_housing_mode(cfg):
-    fixed, _ = model.gearbox_mechanism(validate(merge(cfg, FIXED)))
+def _housing_on_mounts(gb: dict) -> np.ndarray:
+    """Undamped frequencies [Hz] of one gearbox on its mounts, assembled by hand."""
+    return hand_models.frequencies(*hand_models.gearbox_matrices(gb))
+
+
+def test_bench_modes_equal_the_hand_assembled_bench(cfg):
+    mech, _ = model.bench_mechanism(cfg)
+    np.testing.assert_allclose(mech.undamped_frequencies(),
+                               hand_models.frequencies(*hand_models.bench_matrices(cfg)),
+                               rtol=1e-6)
+
+
+def test_elastic_mount_adds_the_housing_mode_of_the_readme(cfg):
+    gb = cfg["gearbox"]
+    assert gb["housing"]["mount"] == "elastic" and all(
+        isinstance(j, float) for j in gb["inertia"])   # lumped inertias: the hand model's
+    by_hand = _housing_on_mounts(gb)
     elastic, _ = model.gearbox_mechanism(cfg)
-    assert elastic.undamped_frequencies().size == fixed.undamped_frequencies().size + 1
+    fixed, _ = model.gearbox_mechanism(validate(merge(cfg, FIXED)))
+    np.testing.assert_allclose(elastic.undamped_frequencies(), by_hand, rtol=1e-6)
+    assert by_hand.size == fixed.undamped_frequencies().size + 1
+    # README / docs/architecture.md, "Physics": a housing mode at 27.8 Hz, the first
+    # stage mode moved from 103.5 to 124.9 Hz
+    assert by_hand[0] == pytest.approx(27.8, abs=0.05)
+    assert by_hand[1] == pytest.approx(124.9, abs=0.05)
+    # the housing mode is the mount's: a 4x stiffer mount doubles it nearly (the gear
+    # chain adds its own flexibility in series, so a little less than double)
+    stiff = _housing_on_mounts({**gb, "housing": {**gb["housing"],
+                                                  "stiffness": 4 * gb["housing"]["stiffness"]}})
+    assert 1.5 * by_hand[0] < stiff[0] < 2.0 * by_hand[0]
 
 
 @pytest.mark.parametrize("which", ["cfg", "cfg_example"])

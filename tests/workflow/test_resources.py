@@ -8,10 +8,14 @@ from __future__ import annotations
 import importlib.util
 import math
 import re
+import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
+
+from gbpipe.io.runlog import PEAK_LINE, job_resources
 
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT / "workflow" / "lib"))
@@ -77,72 +81,116 @@ def test_measured_peak_memory_and_time_within_the_declaration(measured, run):
              r["measured_wall_s"], r["declared_runtime_min"])
             for r in rows if r["status"] not in ("ok", "not run")]
     assert over == []
-    # the measurement is real: psutil saw each script's numpy, scipy and xarray (a rule
-    # whose every job ended within Snakemake's sampling interval has no memory sample;
-    # the SLURM test checks its memory as SLURM accounted it)
-    assert all(m.max_rss_mb > 50 for m in measured[run].values() if m.unsampled < m.jobs)
+    # every job logged its peak at its exit, and it is real: each script imports numpy
+    # and xarray (more than 50 MB resident whatever the machine's load)
+    assert {r: m.unmeasured for r, m in measured[run].items()} == dict.fromkeys(
+        measured[run], 0)
+    assert all(m.max_rss_mb > 50 for m in measured[run].values())
 
 
-def _benchmark(path: Path, s: float, rss: float) -> None:
+def _benchmark(results: Path, job: str, s: float, rss: float | None,
+               log: str | None = None) -> None:
+    """A finished job of ``results``: its benchmark log ``benchmarks/<job>.tsv`` (a max_rss
+    of 1 MB that must not be read) and its job log (``logs/<log or job>.log``) ending with
+    its peak memory ``rss`` [MB] as the job logs it (no such line for None)."""
+    path = results / "benchmarks" / f"{job}.tsv"
     path.parent.mkdir(parents=True, exist_ok=True)
     path.write_text("s\th:m:s\tmax_rss\tmax_vms\tmax_uss\tmax_pss\tio_in\tio_out\t"
-                    f"mean_load\tcpu_time\n{s}\t0:00:01\t{rss}\t1\t1\t1\t0\t0\t90\t{s}\n")
+                    f"mean_load\tcpu_time\n{s}\t0:00:01\t1\t1\t1\t1\t0\t0\t90\t{s}\n")
+    log_path = results / "logs" / f"{log or job}.log"
+    log_path.parent.mkdir(parents=True, exist_ok=True)
+    text = "2026-01-01 00:00:00,000 INFO started\n"
+    if rss is not None:
+        text += f"2026-01-01 00:00:01,000 INFO {PEAK_LINE.format(rss_mb=rss, cpu_s=s)}\n"
+    log_path.write_text(text)
 
 
 def test_the_report_fails_when_a_rule_exceeds_its_declaration(tmp_path, capsys):
     sim = DECLARED.rules["identify"]
-    bench = tmp_path / "results" / "benchmarks"
-    _benchmark(bench / "identify" / "a_square.tsv", 10.0, sim["mem_mb"] - 1)
-    _benchmark(bench / "kinematics.tsv", 1.0, 100.0)
-    assert resources_report.main([str(tmp_path / "results")]) == 0
+    res = tmp_path / "results"
+    _benchmark(res, "identify/a_square", 10.0, sim["mem_mb"] - 1)
+    _benchmark(res, "kinematics", 1.0, 100.0)
+    assert resources_report.main([str(res)]) == 0
     # one more job of identify, 1 MB over its declaration: that rule, and only it, fails
-    _benchmark(bench / "identify" / "b_square.tsv", 10.0, sim["mem_mb"] + 1)
-    assert resources_report.main([str(tmp_path / "results")]) == 1
+    _benchmark(res, "identify/b_square", 10.0, sim["mem_mb"] + 1)
+    assert resources_report.main([str(res)]) == 1
     out = capsys.readouterr()
     assert "exceeded or undeclared: identify" in out.err
-    rows = {r["rule"]: r for r in jobresources.compare(
-        DECLARED, jobresources.measured_in(tmp_path / "results"))}
+    rows = {r["rule"]: r for r in jobresources.compare(DECLARED,
+                                                       jobresources.measured_in(res))}
     assert rows["identify"]["status"] == "memory exceeded"
     assert rows["identify"]["jobs"] == 2
+    assert rows["identify"]["measured_rss_mb"] == sim["mem_mb"] + 1
     assert rows["kinematics"]["status"] == "ok"
     # too long is flagged too, and a rule nobody declared
-    _benchmark(bench / "kinematics.tsv", 60.0 * DECLARED.rules["kinematics"]["runtime"] + 1,
-               100.0)
-    _benchmark(bench / "mystery.tsv", 1.0, 100.0)
-    rows = {r["rule"]: r for r in jobresources.compare(
-        DECLARED, jobresources.measured_in(tmp_path / "results"))}
+    _benchmark(res, "kinematics", 60.0 * DECLARED.rules["kinematics"]["runtime"] + 1, 100.0)
+    _benchmark(res, "mystery", 1.0, 100.0)
+    rows = {r["rule"]: r for r in jobresources.compare(DECLARED,
+                                                       jobresources.measured_in(res))}
     assert rows["kinematics"]["status"] == "runtime exceeded"
     assert rows["mystery"]["status"] == "undeclared"
 
 
-def test_a_job_shorter_than_the_sampling_interval_has_no_memory_measurement(tmp_path):
-    bench = tmp_path / "results" / "benchmarks"
-    short = 0.5 * jobresources.SAMPLE_INTERVAL_S
-    # kinematics ended before Snakemake's first sample after its launch: the 2.7 MB are
-    # the launcher's, not the script's
-    _benchmark(bench / "kinematics.tsv", short, 2.7)
-    # identify: one job sampled (180 MB), one too short to be (3 MB)
-    _benchmark(bench / "identify" / "a_square.tsv", 2.0, 180.0)
-    _benchmark(bench / "identify" / "b_square.tsv", short, 3.0)
-    use = jobresources.measured_in(tmp_path / "results")
-    assert math.isnan(use["kinematics"].max_rss_mb)
-    assert (use["kinematics"].jobs, use["kinematics"].unsampled) == (1, 1)
-    assert use["kinematics"].max_wall_s == short
+def test_memory_is_read_from_each_rules_own_job_logs(tmp_path):
+    res = tmp_path / "results"
+    # the log paths differ from the benchmark paths (rules' log: and benchmark:), and
+    # logs/identify/measured/ lies under logs/identify/ without being identify's
+    _benchmark(res, "spectra_measured/rec", 0.1, 140.0, log="spectra/measured/rec")
+    _benchmark(res, "identify/a_square", 2.0, 180.0)
+    _benchmark(res, "identify_measured/rec_pbsid", 1.0, 900.0,
+               log="identify/measured/rec_pbsid")
+    # a job killed before its end logged no peak: not measured, never 0 MB
+    _benchmark(res, "identify/b_square", 0.1, None)
+    use = jobresources.measured_in(res)
+    assert use["spectra_measured"].max_rss_mb == 140.0
     assert use["identify"].max_rss_mb == 180.0
-    assert (use["identify"].jobs, use["identify"].unsampled) == (2, 1)
+    assert (use["identify"].jobs, use["identify"].unmeasured) == (2, 1)
+    assert use["identify_measured"].max_rss_mb == 900.0
+    _benchmark(res, "kinematics", 0.1, None)
+    use = jobresources.measured_in(res)
+    assert math.isnan(use["kinematics"].max_rss_mb)
     rows = {r["rule"]: r for r in jobresources.compare(DECLARED, use)}
     assert rows["kinematics"]["measured_rss_mb"] is None
-    assert rows["kinematics"]["unsampled_jobs"] == 1
+    assert rows["kinematics"]["unmeasured_jobs"] == 1
     assert rows["kinematics"]["status"] == "ok"
-    assert rows["identify"]["measured_rss_mb"] == 180.0
-    with pytest.raises(ValueError, match="never sampled its memory"):
+    with pytest.raises(ValueError, match="no job logged its peak memory"):
         jobresources.propose(use["kinematics"], DECLARED.headroom)
+
+
+def test_every_rule_has_a_log_path_of_its_own():
+    patterns = jobresources.log_patterns()
+    assert set(patterns) == _workflow_rules()
+    # no path of one rule's logs is another rule's
+    examples = {rule: p.pattern.replace("[^/]+", "x").replace("\\", "")
+                for rule, p in patterns.items()}
+    for rule, path in examples.items():
+        assert [r for r, p in patterns.items() if p.fullmatch(path)] == [rule], path
+
+
+def _job(log: Path, allocate_mb: int, **popen) -> tuple[float, float]:
+    """Run a job that sets up its log and holds ``allocate_mb`` MB; what it logged."""
+    code = ("import sys, numpy as np\nfrom gbpipe.io import setup_log\n"
+            "setup_log(sys.argv[1])\nx = np.ones(int(sys.argv[2]) * 125_000)\n")
+    subprocess.run([sys.executable, "-c", code, str(log), str(allocate_mb)], check=True,
+                   capture_output=True, cwd=log.parent, **popen)
+    return job_resources(log)
+
+
+def test_a_job_logs_its_own_peak_memory_at_exit(tmp_path):
+    # a process that holds 300 MB of float64 logs at least that much, whatever the load
+    rss, cpu = _job(tmp_path / "big.log", 300)
+    assert 300.0 < rss < 1000.0 and cpu >= 0.0
+    # a small job forked (as Snakemake starts its jobs) from a parent holding 600 MB
+    # logs its own peak, not the parent's (which getrusage's ru_maxrss would carry over)
+    parent = np.ones(600 * 125_000)
+    small, _ = _job(tmp_path / "small.log", 0, preexec_fn=lambda: None)
+    assert parent.sum() > 0 and small < 300.0 < rss
 
 
 def test_several_results_folders_count_together(tmp_path):
     # a study's runs (or the default and the bench-record run) in one report
     for name, rss, s in (("one", 180.0, 2.0), ("two", 250.0, 1.5)):
-        _benchmark(tmp_path / name / "benchmarks" / "identify" / "a_square.tsv", s, rss)
+        _benchmark(tmp_path / name, "identify/a_square", s, rss)
     use = jobresources.measured_in(tmp_path / "one", tmp_path / "two")
     assert use["identify"] == jobresources.Measured("identify", 2, 250.0, 2.0, 2.0, 0)
 

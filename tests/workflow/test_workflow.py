@@ -9,11 +9,14 @@ test_interrupt.py (a killed and resumed run gives the results of this one).
 
 from __future__ import annotations
 
+import hashlib
+import json
 import re
 import shutil
 import stat
 import subprocess
 from collections import Counter
+from datetime import datetime, timedelta
 from pathlib import Path
 
 import matplotlib.image as mpimg
@@ -21,9 +24,10 @@ import numpy as np
 import pytest
 from playwright.sync_api import sync_playwright
 
+import gbpipe
 from gbpipe import io
 from tests.workflow.cf_check import cf_findings
-from tests.workflow.runs import snakemake
+from tests.workflow.runs import ROOT, snakemake
 
 
 def _outputs(run: Path) -> list[Path]:
@@ -51,28 +55,38 @@ def planned_jobs(output: str) -> Counter:
     return jobs
 
 
+def _rules_with_param(key: str) -> set[str]:
+    """Rules whose ``params:`` name ``key`` (read from workflow/rules/*.smk)."""
+    found = set()
+    for path in (ROOT / "workflow" / "rules").glob("*.smk"):
+        for block in re.split(r"(?m)^(?=rule \w+:)", path.read_text())[1:]:
+            params = re.search(r"\n    params:\n(.*?)\n    \w+:", block, re.S)
+            if params and key in params[1]:
+                found.add(re.match(r"rule (\w+):", block)[1])
+    return found
+
+
 def test_changed_tsa_parameter_reruns_exactly_the_jobs_that_use_it(ci_run):
-    # tsa.n_cycles is a parameter of the sweep's TSA variants (and their figures) and of
-    # the TSA of the test records, hence of identification and its table and figures.
-    # Nothing upstream (kinematics, model, campaign, sweep, spectra) nor figures_model /
-    # figures_tests may rerun. The TSA of the sweep (one job, 4 variants), 2 identified
-    # records (the square speed ramp and the multisine test on it), and the harmonic
-    # removal of 3 test records (those two and their validation record) in the CI config.
-    # One removal_tests job runs TSA with every removal version on all 3, so the removal
-    # versions' files are rewritten too and the removal table that reads them reruns; the
-    # design figure shows the bands; the physical fit reads the PBSID models of the
-    # multisine test (and its figure). One identify job per record fits every method (its
-    # outputs: one file per method).
+    # tsa.n_cycles is a parameter of the rules that name it in their params: (the sweep's
+    # TSA variants, their figures, the TSA of the test records); changing it must rerun
+    # exactly those rules' jobs and everything downstream of them (what Snakemake plans
+    # when those rules are forced), nothing upstream, no sibling. The expectation is
+    # derived from the rule files, so adding a rule does not break the test.
+    readers = _rules_with_param("n_cycles")
+    assert {"tsa", "removal_tests"} <= readers
     overlay = ci_run / "config" / "tsa_change.yaml"
     overlay.write_text("tsa:\n  n_cycles: 8\n")
     try:
         out = snakemake(ci_run, "config/tsa_change.yaml", "--dry-run")
     finally:
         overlay.unlink()
-    assert planned_jobs(out.stdout + out.stderr) == Counter({
-        "tsa": 1, "figures_harmonics": 1, "removal_tests": 1, "removal_table": 1,
-        "identify": 2, "identification_table": 1, "figures_identify": 1,
-        "figures_design": 1, "fit": 1, "figures_fit": 1, "all": 1})
+    forced = snakemake(ci_run, "--dry-run", "--forcerun", *sorted(readers))
+    planned, expected = (planned_jobs(o.stdout + o.stderr) for o in (out, forced))
+    assert planned == expected
+    # what the closure holds in the CI run: the TSA of the sweep and the records, their
+    # identification downstream; and nothing upstream of the TSA
+    assert {"tsa", "removal_tests", "identify", "fit"} <= set(planned)
+    assert not {"kinematics", "model", "campaign", "sweep", "spectra"} & set(planned)
 
 
 def test_every_output_file_is_0644(ci_run):
@@ -89,12 +103,27 @@ def test_every_netcdf_output_is_cf_clean(ci_run):
 
 
 def test_every_output_has_provenance(ci_run):
+    # the values, checked independently: the version installed, the hash of the config
+    # slice the file holds (hashlib over its canonical JSON), each source file's size and
+    # hash as they are on disk, a creation time in UTC
     for path in _outputs(ci_run):
         ds = io.read(path)
-        for key in ("gbpipe_version", "config_sha256", "created", "stage", "Conventions"):
-            assert key in ds.attrs, (path, key)
+        a = ds.attrs
+        assert a["Conventions"] == "CF-1.11" and a["gbpipe_version"] == gbpipe.__version__
+        assert a["source"] == f"gbpipe {gbpipe.__version__} stage '{a['stage']}'", path
+        canonical = json.dumps(json.loads(a["config"]), sort_keys=True,
+                               separators=(",", ":"))
+        assert a["config_sha256"] == hashlib.sha256(canonical.encode()).hexdigest(), path
+        sources = json.loads(a["source_files"])
+        assert sources, path
+        for src in sources:
+            data = (ci_run / src["path"]).read_bytes()
+            assert (len(data), hashlib.sha256(data).hexdigest()) == (
+                src["bytes"], src["sha256"]), (path, src["path"])
+        created = datetime.fromisoformat(a["created"])
+        assert created.utcoffset() == timedelta(0) and a["created"] in a["history"], path
         for name, var in {**ds.coords, **ds.data_vars}.items():
-            assert "units" in var.attrs and "long_name" in var.attrs, (path, name)
+            assert var.attrs["units"] and var.attrs["long_name"], (path, name)
 
 
 @pytest.fixture(scope="session")
@@ -135,11 +164,13 @@ def test_report_renders_every_figure_in_a_browser(ci_run, chromium, tmp_path):
                 row = rows.nth(i)
                 name = row.inner_text().split("/")[-1].strip()
                 row.locator("a[iconname=eye]").click()
-                page.wait_for_timeout(300)
-                sizes = page.eval_on_selector_all(
-                    "img[src^='data:image/png']", "els => els.map(e => e.naturalWidth)")
                 png = mpimg.imread(ci_run / "results" / "figures" / name)
-                assert png.shape[1] in sizes, f"{name} did not render (widths {sizes})"
+                # wait for the figure itself (its decoded width), not for a fixed time: a
+                # loaded machine only makes this slower; the timeout is there for a hang
+                page.wait_for_function(
+                    "w => [...document.querySelectorAll(\"img[src^='data:image/png']\")]"
+                    ".some(e => e.complete && e.naturalWidth === w)", arg=png.shape[1],
+                    timeout=300_000)
                 shot = tmp_path / f"shot_{name}"
                 page.screenshot(path=str(shot))
                 pixels = mpimg.imread(shot)[:, 400:, :3]

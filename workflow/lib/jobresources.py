@@ -1,15 +1,16 @@
 """What each rule's job declares (threads, memory, run time) and what it was measured to use.
 
 The declarations live in ``workflow/resources.yaml``, one entry per rule, derived from the
-``benchmark:`` logs of a full default run (``workflow/scripts/resources_report.py
---propose``). The rules read them (``threads: DECLARED.threads("simulate")``,
-``resources: **DECLARED.resources("simulate")``); the report and the tests compare them
-with the benchmark logs of any run.
+logs of a full default run (``workflow/scripts/resources_report.py --propose``). The rules
+read them (``threads: DECLARED.threads("simulate")``, ``resources:
+**DECLARED.resources("simulate")``); the report and the tests compare them with the logs
+of any run.
 
 Every rule writes its benchmark to ``<results>/benchmarks/<rule>.tsv`` or under
-``<results>/benchmarks/<rule>/``, so a log names its rule by its first path component.
-Snakemake's benchmark measures the job's script process (tree), not the Snakemake
-process that runs it on a cluster node, so each declaration is the script's share plus
+``<results>/benchmarks/<rule>/``, so a log names its rule by its first path component;
+its wall and CPU time are read there. Peak memory is what each job logged of itself at
+its exit (``gbpipe.io.setup_log``): the script process, not the Snakemake process that
+runs it on a cluster node, so each declaration is the script's share plus
 ``overhead_mb`` (two Snakemake processes per SLURM job: the batch script's and srun's).
 """
 
@@ -17,23 +18,22 @@ from __future__ import annotations
 
 import csv
 import math
-from collections.abc import Callable, Iterable, Mapping
+import re
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import yaml
-from snakemake.benchmark import BENCHMARK_INTERVAL_SHORT
+
+from gbpipe.io.runlog import job_resources
 
 #: The declarations file of the workflow.
 DECLARATIONS = Path(__file__).resolve().parents[1] / "resources.yaml"
 #: Keys of one rule's declaration.
 KEYS = ("threads", "mem_mb", "runtime")
-#: Snakemake's benchmark samples a job's processes when it starts, then every this many
-#: seconds: a job that ends sooner has only its launch sampled (the launcher's few MB and
-#: no CPU, never the script), so its memory is not measured at all.
-SAMPLE_INTERVAL_S = float(BENCHMARK_INTERVAL_SHORT)
-
+#: The rules of the workflow, whose ``log:`` paths name the rule of each job log.
+RULES = Path(__file__).resolve().parents[1] / "rules"
 
 @dataclass(frozen=True)
 class Measured:
@@ -41,11 +41,11 @@ class Measured:
 
     rule: str
     jobs: int
-    max_rss_mb: float     # peak resident memory of the script's process tree [MB], over
-                          # the sampled jobs (NaN when none was)
+    max_rss_mb: float     # peak resident memory of the script process [MB] as each job
+                          # logged it at its exit (NaN when no job did)
     max_wall_s: float     # longest job [s]
     max_cpu_s: float      # most CPU time of one job [s]
-    unsampled: int = 0    # jobs shorter than SAMPLE_INTERVAL_S: memory not measured
+    unmeasured: int = 0   # jobs whose log holds no peak memory (killed before the end)
 
 
 class Declared:
@@ -105,43 +105,58 @@ def rule_of(benchmark: Path, root: Path) -> str:
 
 
 def read_benchmark(path: Path) -> dict[str, float]:
-    """The last row of one Snakemake benchmark log (one row per repeat)."""
+    """Wall and CPU time of the last row of one Snakemake benchmark log (one row per
+    repeat). Its ``max_rss`` is not used: Snakemake samples it every 0.5 s, so a short
+    job's is its launcher's or missing, depending on the machine's load."""
     with open(path, newline="") as fh:
         rows = list(csv.DictReader(fh, delimiter="\t"))
     if not rows:
         raise ValueError(f"benchmark log {path} has no row")
     row = rows[-1]
-    return {"s": float(row["s"]), "max_rss": float(row["max_rss"]),
-            "cpu_time": float(row["cpu_time"])}
+    return {"s": float(row["s"]), "cpu_time": float(row["cpu_time"])}
 
 
-def measured(benchmarks: Iterable[tuple[Path, Path]]) -> dict[str, Measured]:
-    """Per rule, the largest use over its jobs' benchmark logs.
-
-    ``benchmarks`` are ``(log, root)`` pairs, ``root`` the ``benchmarks`` folder the log
-    lies under (its first path component there names the rule), so that the logs of
-    several results folders (a study's runs, the default and the bench-record run) count
-    together. Memory that psutil could not read is written as ``NA`` by Snakemake and
-    raises here: a measurement that is missing is not a measurement of zero. A job
-    shorter than :data:`SAMPLE_INTERVAL_S` is counted in ``unsampled`` and left out of
-    the peak memory (its only sample is its launch), never taken as using a few MB.
-    """
-    rows: dict[str, list[dict[str, float]]] = {}
-    for path, root in benchmarks:
-        rows.setdefault(rule_of(path, root), []).append(read_benchmark(path))
+def log_patterns(rules: Path = RULES) -> dict[str, re.Pattern]:
+    """Rule -> regular expression of its job logs' paths under the results folder, from
+    the ``log:`` of each rule in ``rules/*.smk`` (a wildcard matches one path part)."""
     out = {}
-    for rule, r in sorted(rows.items()):
-        sampled = [x["max_rss"] for x in r if x["s"] >= SAMPLE_INTERVAL_S]
-        out[rule] = Measured(rule, len(r), max(sampled, default=math.nan),
-                             max(x["s"] for x in r), max(x["cpu_time"] for x in r),
-                             unsampled=len(r) - len(sampled))
+    for path in sorted(rules.glob("*.smk")):
+        for block in re.split(r"(?m)^(?=rule \w+:)", path.read_text())[1:]:
+            rule = re.match(r"rule (\w+):", block)[1]
+            found = re.search(r'\n    log:\n\s+f"\{RESULTS\}/([^"]+)"', block)
+            if found:
+                parts = re.split(r"\{\{\w+\}\}", found[1])
+                out[rule] = re.compile("[^/]+".join(map(re.escape, parts)))
     return out
 
 
-def measured_in(*results: str | Path) -> dict[str, Measured]:
-    """:func:`measured` of every benchmark log of one or several results folders."""
-    roots = [Path(folder) / "benchmarks" for folder in results]
-    return measured((path, root) for root in roots for path in sorted(root.rglob("*.tsv")))
+def measured_in(*results: str | Path, rules: Path = RULES) -> dict[str, Measured]:
+    """Per rule, the largest use over its jobs in one or several results folders (a
+    study's runs, the default and the bench-record run count together).
+
+    Wall and CPU time come from the jobs' ``benchmarks/`` logs (the first path component
+    there names the rule); peak memory from the jobs' own logs under ``logs/``
+    (:func:`gbpipe.io.runlog.job_resources`, kernel accounting, the same however loaded
+    the machine). A job without that line is counted in ``unmeasured``, never as using
+    0 MB.
+    """
+    patterns = log_patterns(rules)
+    times: dict[str, list[dict[str, float]]] = {}
+    peaks: dict[str, list[float]] = {}
+    for folder in map(Path, results):
+        root = folder / "benchmarks"
+        for path in sorted(root.rglob("*.tsv")):
+            times.setdefault(rule_of(path, root), []).append(read_benchmark(path))
+        for path in sorted((folder / "logs").rglob("*.log")):
+            rel = path.relative_to(folder).as_posix()
+            rule = next((r for r, p in patterns.items() if p.fullmatch(rel)), None)
+            use = job_resources(path)
+            if rule is not None and use is not None:
+                peaks.setdefault(rule, []).append(use[0])
+    return {rule: Measured(rule, len(r), max(peaks.get(rule, []), default=math.nan),
+                           max(x["s"] for x in r), max(x["cpu_time"] for x in r),
+                           unmeasured=max(0, len(r) - len(peaks.get(rule, []))))
+            for rule, r in sorted(times.items())}
 
 
 def propose(use: Measured, headroom: Mapping[str, float]) -> dict[str, int]:
@@ -152,12 +167,11 @@ def propose(use: Measured, headroom: Mapping[str, float]) -> dict[str, int]:
     Raises
     ------
     ValueError
-        No job of the rule was long enough for its memory to be sampled.
+        No job of the rule logged its peak memory.
     """
     if math.isnan(use.max_rss_mb):
-        raise ValueError(f"rule {use.rule}: no job ran {SAMPLE_INTERVAL_S} s or longer, so "
-                         "Snakemake never sampled its memory; keep its declaration or "
-                         "measure it on a slower run")
+        raise ValueError(f"rule {use.rule}: no job logged its peak memory (each job's log "
+                         "ends with it when the job exits); keep its declaration")
     mem = 50 * math.ceil(headroom["mem"] * use.max_rss_mb / 50)
     runtime = max(int(headroom["min_runtime"]),
                   math.ceil(headroom["runtime"] * use.max_wall_s / 60))
@@ -167,8 +181,8 @@ def propose(use: Measured, headroom: Mapping[str, float]) -> dict[str, int]:
 def compare(declared: Declared, use: Mapping[str, Measured]) -> list[dict[str, Any]]:
     """One row per declared or measured rule: measured against declared, and whether the
     measured peak memory and wall time fit in the first attempt's declaration.
-    ``unsampled_jobs`` counts the jobs whose memory Snakemake never sampled (shorter than
-    :data:`SAMPLE_INTERVAL_S`); a rule with only such jobs is judged on its run time."""
+    ``unmeasured_jobs`` counts the jobs that logged no peak memory; a rule with only such
+    jobs is judged on its run time."""
     rows = []
     for rule in sorted(set(declared.rules) | set(use)):
         d, m = declared.rules.get(rule), use.get(rule)
@@ -177,7 +191,7 @@ def compare(declared: Declared, use: Mapping[str, Measured]) -> list[dict[str, A
         row["declared_mem_mb"] = d["mem_mb"] if d else None
         row["measured_rss_mb"] = (round(m.max_rss_mb, 1)
                                   if m and not math.isnan(m.max_rss_mb) else None)
-        row["unsampled_jobs"] = m.unsampled if m else 0
+        row["unmeasured_jobs"] = m.unmeasured if m else 0
         row["declared_runtime_min"] = d["runtime"] if d else None
         row["measured_wall_s"] = round(m.max_wall_s, 2) if m else None
         row["measured_cpu_s"] = round(m.max_cpu_s, 2) if m else None
@@ -185,7 +199,7 @@ def compare(declared: Declared, use: Mapping[str, Measured]) -> list[dict[str, A
             row["status"] = "undeclared"
         elif m is None:
             row["status"] = "not run"
-        elif m.max_rss_mb > d["mem_mb"]:   # False for NaN: no job's memory was sampled
+        elif m.max_rss_mb > d["mem_mb"]:   # False for NaN: no job logged its memory
             row["status"] = "memory exceeded"
         elif m.max_wall_s > 60 * d["runtime"]:
             row["status"] = "runtime exceeded"

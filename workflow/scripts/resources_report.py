@@ -1,13 +1,14 @@
-"""Resources each rule declares against what its jobs used (Snakemake's benchmark logs).
+"""Resources each rule declares against what its jobs used (their logs and benchmark logs).
 
     python workflow/scripts/resources_report.py [RESULTS ...] [--csv FILE] [--propose]
 
 RESULTS are results folders (default ``results``; a study's ``results/<name>`` folders may
 be given together: each rule's largest use over all of them counts). The table compares
 each rule's declaration in ``workflow/resources.yaml`` (the script's memory share, without
-the Snakemake overhead) with the largest peak memory and wall time of its jobs (a job
-shorter than Snakemake's 0.5 s sampling interval has no memory sample: it is counted in
-``unsampled_jobs``, not as using a few MB). The exit status is 1 when a rule's measured
+the Snakemake overhead) with the largest peak memory of its jobs (each job logs its own
+at its exit; a job whose log lacks it, e.g. a killed one, is counted in
+``unmeasured_jobs``, not as using 0 MB) and their longest wall time (Snakemake's
+benchmark logs). The exit status is 1 when a rule's measured
 peak memory or wall time exceeds its declaration, or a rule that ran is not declared.
 
 ``--propose`` prints, instead, a ``rules:`` section derived from the measurement with the
@@ -27,7 +28,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "lib"))
 import jobresources  # noqa: E402  (the workflow's own helpers, beside this folder)
 
 COLUMNS = ("rule", "jobs", "threads", "declared_mem_mb", "measured_rss_mb",
-           "unsampled_jobs", "declared_runtime_min", "measured_wall_s", "measured_cpu_s",
+           "unmeasured_jobs", "declared_runtime_min", "measured_wall_s", "measured_cpu_s",
            "status")
 
 
@@ -66,7 +67,7 @@ def main(argv: list[str] | None = None) -> int:
         for rule, m in use.items():
             try:
                 p = jobresources.propose(m, declared.headroom)
-            except ValueError as exc:   # every job shorter than the sampling interval
+            except ValueError as exc:   # no job logged its peak memory
                 print(f"  # {exc}")
                 continue
             print(f"  {rule}: {{threads: {p['threads']}, mem_mb: {p['mem_mb']}, "
@@ -76,7 +77,7 @@ def main(argv: list[str] | None = None) -> int:
 
     rows = jobresources.compare(declared, use)
     print(f"Declared (workflow/resources.yaml; memory: the script's share, a job asks for "
-          f"{declared.overhead_mb} MB more) against measured (benchmark logs of "
+          f"{declared.overhead_mb} MB more) against measured (job logs and benchmark logs of "
           f"{', '.join(map(str, args.results))}):\n")
     print(_markdown(rows))
     if args.csv:

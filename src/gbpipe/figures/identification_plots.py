@@ -14,7 +14,7 @@ import numpy as np
 import xarray as xr
 
 from gbpipe.figures.captions import write_caption
-from gbpipe.figures.style import new, save
+from gbpipe.figures.style import db, new, save
 from gbpipe.identify import VERSIONS, best_pairings
 
 __all__ = ["fig_bode_identified", "fig_bandwidth", "identification_figures", "version_rank"]
@@ -23,10 +23,6 @@ __all__ = ["fig_bode_identified", "fig_bandwidth", "identification_figures", "ve
 def version_rank(version: str) -> tuple[int, str]:
     """Sort key of a data version: clean, raw, tsa, then the removal methods by name."""
     return (VERSIONS.index(version), "") if version in VERSIONS else (len(VERSIONS), version)
-
-
-def _db(re: np.ndarray, im: np.ndarray) -> np.ndarray:
-    return 20 * np.log10(np.maximum(np.hypot(re, im), 1e-300))
 
 
 def _draw_case(ax: Any, ax_e: Any, datasets: Sequence[xr.Dataset],
@@ -44,7 +40,7 @@ def _draw_case(ax: Any, ax_e: Any, datasets: Sequence[xr.Dataset],
         sel = ds.sel(model=key).isel(output=0, input=0)
         f = ds.frequency.values
         if not drawn_ref:
-            ax.semilogx(f, _db(sel.frf_reference_real.values, sel.frf_reference_imag.values),
+            ax.semilogx(f, db(sel.frf_reference_real.values + 1j * sel.frf_reference_imag.values),
                         "k", lw=2, label=ds.attrs["reference_description"])
             ax.set_ylabel(f"|G| [dB re 1 {sel.frf_unit.values}]")
             drawn_ref = True
@@ -62,7 +58,7 @@ def _draw_case(ax: Any, ax_e: Any, datasets: Sequence[xr.Dataset],
         bws[m] = bw
         whole = (f"; all elements {float(full.match_bandwidth):.0f} Hz"
                  if int(full.n_inputs) * int(full.n_outputs) > 1 else "")
-        ax.semilogx(f, _db(sel.frf_identified_real.values, sel.frf_identified_imag.values),
+        ax.semilogx(f, db(sel.frf_identified_real.values + 1j * sel.frf_identified_imag.values),
                     color=colors.get(m), lw=1.1, ls="--",
                     label=f"{m.upper()} (order {int(sel.order)}, {status}): ±{tol:g} dB to "
                           f"{bw:.0f} Hz{whole}")

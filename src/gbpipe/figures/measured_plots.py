@@ -15,16 +15,12 @@ import numpy as np
 import xarray as xr
 
 from gbpipe.figures.captions import write_caption
-from gbpipe.figures.style import new, save
+from gbpipe.figures.style import db, new, save
 
 __all__ = ["measured_identification_figure"]
 
 _COLORS = {"pbsid": "C0", "moesp": "C1", "n4sid": "C2"}
 _STYLES = {"raw": "--", "tsa": ":"}
-
-
-def _db(x: np.ndarray) -> np.ndarray:
-    return 20 * np.log10(np.maximum(np.abs(x), 1e-300))
 
 
 def measured_identification_figure(datasets: Sequence[xr.Dataset], record: str,
@@ -62,9 +58,9 @@ def measured_identification_figure(datasets: Sequence[xr.Dataset], record: str,
         g_ref = sel.frf_reference_real.values + 1j * sel.frf_reference_imag.values
         band = first.assessable.values > 0.5
         share[pairing] = 100 * float(band.mean())
-        ax.semilogx(f, _db(g_ref), "k", lw=1.6, label="nonparametric estimate")
-        ax.fill_between(f, _db(sel.frf_reference_lower.values),
-                        _db(sel.frf_reference_upper.values), where=band, color="C3",
+        ax.semilogx(f, db(g_ref), "k", lw=1.6, label="nonparametric estimate")
+        ax.fill_between(f, db(sel.frf_reference_lower.values),
+                        db(sel.frf_reference_upper.values), where=band, color="C3",
                         alpha=0.35, lw=0, label="95 % bounds (where coherent)")
         ax_c.semilogx(f, sel.coherence.values, "k", lw=1.0)
         ax_c.axhline(coherence_min, color="r", lw=0.8, ls="--",
@@ -80,7 +76,7 @@ def measured_identification_figure(datasets: Sequence[xr.Dataset], record: str,
                 bw = float(m.match_bandwidth)
                 bws[f"{method} {pairing}/{version}"] = bw
                 s = m.isel(output=0, input=0)
-                ax.semilogx(f, _db(s.frf_identified_real.values
+                ax.semilogx(f, db(s.frf_identified_real.values
                                    + 1j * s.frf_identified_imag.values),
                             color=_COLORS.get(method), ls=_STYLES.get(version, "-"), lw=1.0,
                             label=f"{method.upper()} {version} (order {int(m.order)}, "

@@ -72,8 +72,8 @@ def removal_tradeoff_figure(datasets: Mapping[str, xr.Dataset],
     ----------
     datasets : mapping str -> xarray.Dataset
         Method name -> :func:`gbpipe.harmonics.separation_metrics` output of that method
-        (with ``leftover_db``), carrying the attributes ``runtime_s`` (wall time of the
-        method on the record [s]) and ``peak_memory_mb`` (its peak memory [MB]).
+        (with ``leftover_db``). (Speed is the benchmarks' business, not the figure's: a
+        wall time in the caption would change from run to run.)
     out : mapping
         ``png`` and ``caption`` paths (the other formats go beside the PNG).
     tolerance_db : float
@@ -86,9 +86,8 @@ def removal_tradeoff_figure(datasets: Mapping[str, xr.Dataset],
     -------
     dict
         Per method: ``"<method> worst change dB"`` (largest mode-band ``|change_db|`` over
-        the rpm bins [dB]), ``"<method> worst attenuation dB"`` (smallest ``leftover_db``
-        over families and rpm bins [dB], +inf for a perfect removal) and
-        ``"<method> runtime s"`` [s].
+        the rpm bins [dB]) and ``"<method> worst attenuation dB"`` (smallest
+        ``leftover_db`` over families and rpm bins [dB], +inf for a perfect removal).
 
     Raises
     ------
@@ -110,24 +109,20 @@ def removal_tradeoff_figure(datasets: Mapping[str, xr.Dataset],
     n_clipped = 0
     for k, (method, ds) in enumerate(datasets.items()):
         change, att = worst[method]
-        runtime = float(ds.attrs["runtime_s"])
         style = dict(color=f"C{k % 10}", marker=_MARKERS[k % len(_MARKERS)])
         clipped = np.isposinf(att)
         n_clipped += int(clipped.sum())
         ax.scatter(change[~clipped], att[~clipped], s=22, alpha=0.8, **style,
-                   label=f"{method} ({runtime:.3g} s)")
+                   label=method)
         # Clipped points drawn hollow at the top edge so they read as "off the scale".
         ax.scatter(change[clipped], np.full(clipped.sum(), top), s=40, facecolors="none",
                    edgecolors=style["color"], marker=style["marker"])
         ax_r.plot(ds.rpm.values, change, lw=1.2, ms=4, **style, label=method)
         numbers[f"{method} worst change dB"] = float(np.nanmax(change))
         numbers[f"{method} worst attenuation dB"] = float(np.nanmin(att))
-        numbers[f"{method} runtime s"] = runtime
         caption[f"{method}"] = (
             f"worst mode-band change {_fmt_db(numbers[f'{method} worst change dB'])}, "
-            f"worst attenuation {_fmt_db(numbers[f'{method} worst attenuation dB'])}, "
-            f"runtime {runtime:.3g} s, peak memory "
-            f"{float(ds.attrs['peak_memory_mb']):.3g} MB")
+            f"worst attenuation {_fmt_db(numbers[f'{method} worst attenuation dB'])}")
         # NaN (an empty bin) compares False: a bin that cannot be judged does not pass.
         if np.all(change <= tolerance_db) and np.all(att >= target_db):
             meets_both.append(method)
@@ -157,12 +152,10 @@ def removal_tradeoff_figure(datasets: Mapping[str, xr.Dataset],
 
     changes = {m: numbers[f"{m} worst change dB"] for m in datasets}
     atts = {m: numbers[f"{m} worst attenuation dB"] for m in datasets}
-    runtimes = {m: numbers[f"{m} runtime s"] for m in datasets}
-    b_change, b_att, b_fast = _best(changes, False), _best(atts, True), _best(runtimes, False)
+    b_change, b_att = _best(changes, False), _best(atts, True)
     summary = {
         "least broadband damage": f"{b_change} ({_fmt_db(changes.get(b_change, np.nan))})",
         "most attenuation": f"{b_att} ({_fmt_db(atts.get(b_att, np.nan))})",
-        "fastest": f"{b_fast} ({runtimes.get(b_fast, np.nan):.3g} s)",
         f"meet both (<= {tolerance_db:g} dB change, >= {target_db:g} dB attenuation) in "
         "every rpm bin": ", ".join(meets_both) or "none",
     }
@@ -172,7 +165,7 @@ def removal_tradeoff_figure(datasets: Mapping[str, xr.Dataset],
                   "of the residual against the random-only signal over the mode bands "
                   "('elsewhere' excluded) against the smallest family attenuation on the "
                   f"harmonic part; dashed: tolerance {tolerance_db:g} dB, dotted: target "
-                  f"{target_db:g} dB; legend: runtime. {n_clipped} point(s) with +inf "
+                  f"{target_db:g} dB. {n_clipped} point(s) with +inf "
                   "attenuation (perfect removal) are clipped to the top of the axis (hollow "
                   "markers). Right: worst level change per rpm bin along the sweep.",
                   {**summary, **caption})

@@ -7,8 +7,10 @@ from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from contextvars import ContextVar
 from pathlib import Path
+from typing import Any
 
 import matplotlib
+import numpy as np
 
 matplotlib.use("Agg")  # headless: Snakemake jobs and CI have no display
 
@@ -16,7 +18,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 
 from gbpipe.io import atomic_path  # noqa: E402
 
-__all__ = ["plt", "save", "new", "FORMATS", "DEFAULT_FORMATS", "formats"]
+__all__ = ["plt", "save", "new", "db", "FORMATS", "DEFAULT_FORMATS", "formats"]
 
 #: File formats a figure may be saved in (config ``figures.formats``). PNG is always one:
 #: the report embeds it and every caption refers to it.
@@ -38,6 +40,13 @@ def new(nrows: int = 1, ncols: int = 1, **kw):
     """A figure and axes with the gbpipe defaults (constrained layout)."""
     kw.setdefault("figsize", (7.0, 4.2))
     return plt.subplots(nrows, ncols, layout="constrained", **kw)
+
+
+def db(x: Any, power: bool = False) -> np.ndarray:
+    """Level in dB of an amplitude (``20 log10 |x|``) or, with ``power``, of a power
+    (``10 log10 x``). Zero maps to a finite floor far below any plotted range (a line is
+    never broken by ``-inf``)."""
+    return (10.0 if power else 20.0) * np.log10(np.maximum(np.abs(np.asarray(x)), 1e-300))
 
 
 @contextmanager

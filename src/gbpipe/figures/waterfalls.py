@@ -14,7 +14,7 @@ import numpy as np
 import xarray as xr
 
 from gbpipe.figures.captions import write_caption
-from gbpipe.figures.style import new, save
+from gbpipe.figures.style import db, new, save
 from gbpipe.kinematics import order_of
 
 __all__ = ["fig_power_waterfall", "fig_order_waterfall", "fig_mode_band", "harmonics_figures",
@@ -23,10 +23,6 @@ __all__ = ["fig_power_waterfall", "fig_order_waterfall", "fig_mode_band", "harmo
 #: How the captions name the cycles of the paper's variants (others: "<name> cycles").
 CYCLE_DESCRIPTIONS = {"hss": "HSS cycles", "carrier2": "planet-carrier-2 revolutions",
                       "mesh2": "stage-2 gear-mesh periods"}
-
-
-def _db(power: xr.DataArray) -> np.ndarray:
-    return 10 * np.log10(np.maximum(power.values, 1e-30))
 
 
 def _mesh(ax, x, y, z, vmax, dyn, label):
@@ -40,7 +36,7 @@ def _waterfall(x: xr.DataArray, y: xr.DataArray, power: xr.DataArray, stem, titl
     """Power in dB over (x, rpm) with a colour bar; ``decorate(ax)`` adds the marks.
     Returns the top of the colour scale [dB] (to share it between figures)."""
     fig, ax = new(figsize=(7.0, 4.6))
-    z = _db(power)
+    z = db(power.values, power=True)
     vmax = float(np.nanmax(z)) if vmax is None else vmax
     m = _mesh(ax, x, y, z, vmax, dynamic_range, "")
     decorate(ax)

@@ -31,8 +31,10 @@ Removal beyond TSA (issue 16):
                     (``removal``, ``removal_table``), and on the tests (``removal_tests``)
 ==================  =====================================================================
 
-Imports only numpy, scipy, xarray and gbpipe's kinematics, units and errors: never the
-bench model or the simulator, so that it runs unchanged on measured records.
+Imports only numpy, scipy, xarray and gbpipe's kinematics, units and errors, and (in
+``stage`` and ``comparison``) the record contract of :mod:`gbpipe.io` (the measured form
+of a signal, the tacho shaft's mean speed, the longest gap-free piece): never the bench
+model or the simulator, so that it runs unchanged on measured records.
 """
 
 from gbpipe.harmonics.angle import AngleMap, resample_to_angle, resample_to_time
@@ -80,7 +82,7 @@ from gbpipe.harmonics.tacho import (
     shaft_speed,
 )
 from gbpipe.harmonics.tracking import order_amplitudes
-from gbpipe.harmonics.tsa import TSAInfo, residual, synchronous_average
+from gbpipe.harmonics.tsa import TSAInfo, residual
 from gbpipe.harmonics.vkf import residual_vkf
 
 __all__ = [
@@ -90,7 +92,7 @@ __all__ = [
     # spectra and order tracking
     "power_spectrum_vs_rpm", "order_spectrum_vs_rpm", "order_spectrum", "order_amplitudes",
     # time-synchronous averaging
-    "residual", "residual_joint", "synchronous_average", "TSAInfo", "JointInfo",
+    "residual", "residual_joint", "TSAInfo", "JointInfo",
     "CyclePlan", "AVERAGING",
     # families and metrics
     "family_orders", "cycle_orders", "family_names", "excitation_families",

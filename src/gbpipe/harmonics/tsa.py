@@ -37,7 +37,7 @@ from gbpipe.harmonics.averaging import AVERAGING, CyclePlan
 from gbpipe.harmonics.checks import as_count, as_order
 from gbpipe.harmonics.tacho import AngleMethod, check_pulse_times
 
-__all__ = ["residual", "synchronous_average", "TSAInfo"]
+__all__ = ["residual", "TSAInfo"]
 
 
 @dataclass(frozen=True)
@@ -209,18 +209,3 @@ def residual(
     if not return_info:
         return r
     return r, TSAInfo(s, valid, c, n_cycles, plan.K, plan.n_rows, plan.M, means)
-
-
-def synchronous_average(x: np.ndarray, fs: float, pulse_times: np.ndarray,
-                        cycle_order: float | Fraction, n_cycles: int = 10,
-                        pulses_per_rev: int = 1, **kwargs: Any) -> TSAInfo:
-    """Block mean cycles and the synchronous estimate, without subtracting.
-
-    Same arguments as :func:`residual` (``unbiased``/``outside``/``return_info`` are
-    ignored); returns its :class:`TSAInfo`.
-    """
-    kwargs = {k: v for k, v in kwargs.items()
-              if k not in ("unbiased", "outside", "return_info")}
-    _, info = residual(x, fs, pulse_times, cycle_order, n_cycles, pulses_per_rev,
-                       return_info=True, **kwargs)
-    return info

@@ -15,7 +15,9 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
-__all__ = ["MODE_TOLERANCE", "models_dataset", "model_matrices", "pad"]
+from gbpipe.lti import pad
+
+__all__ = ["MODE_TOLERANCE", "models_dataset", "model_matrices"]
 
 #: Relative distance [-] within which an identified mode matches a true one (stored as the
 #: ``mode_tolerance`` attribute, which the table reads).
@@ -127,13 +129,6 @@ def _file_frf_units(per_model: Sequence[str]) -> str:
     u = units.pop()
     num, _, den = u.partition("/")
     return "1" if num == den else _FRF_MIXED if u.startswith("mixed") else u
-
-
-def pad(a: np.ndarray, shape: tuple[int, ...]) -> np.ndarray:
-    """``a`` in the leading corner of a NaN array of ``shape`` (models of unequal size)."""
-    out = np.full(shape, np.nan)
-    out[tuple(slice(0, n) for n in a.shape)] = a
-    return out
 
 
 def models_dataset(results: Sequence[Mapping[str, Any]], dt: float, method: str,

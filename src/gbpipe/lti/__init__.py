@@ -17,12 +17,14 @@ fit_percent(y, y_sim)
     NRMSE fit [%] per output.
 modes(A, dt=None)
     Natural frequencies [Hz] and damping ratios.
+pad(a, shape, fill=nan)
+    ``a`` in the leading corner of a NaN array (models of unequal size on common dims).
 """
 
 from gbpipe.lti.metrics import fit_percent
 from gbpipe.lti.modal import modes
-from gbpipe.lti.response import frf
+from gbpipe.lti.response import frf, pad
 from gbpipe.lti.simulation import dlsim, lsim
 from gbpipe.lti.statespace import NamedSS
 
-__all__ = ["NamedSS", "dlsim", "lsim", "frf", "fit_percent", "modes"]
+__all__ = ["NamedSS", "dlsim", "lsim", "frf", "fit_percent", "modes", "pad"]

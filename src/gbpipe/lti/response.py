@@ -9,7 +9,7 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["frf"]
+__all__ = ["frf", "pad"]
 
 # Frequencies per batched solve: bounds the (chunk, n, n) stack to a few MB.
 _CHUNK = 256
@@ -48,4 +48,17 @@ def frf(sys: Any, f_hz: Any) -> np.ndarray:
         mat = lam[:, None, None] * np.eye(n) - a
         x = np.linalg.solve(mat, np.broadcast_to(b, (lam.size, *b.shape)))
         out[lo:lo + _CHUNK] = c @ x + d
+    return out
+
+
+def pad(a: Any, shape: tuple[int, ...], fill: float = np.nan) -> np.ndarray:
+    """``a`` in the leading corner of an array of ``shape`` filled with ``fill``.
+
+    Models (or pairings) of unequal order and channel count stored on common dimensions:
+    the missing rows and columns are NaN, never a zero a reader would take for a value.
+    The dtype is ``a``'s promoted to float (a complex FRF stays complex).
+    """
+    a = np.asarray(a)
+    out = np.full(shape, fill, dtype=np.result_type(a, float))
+    out[tuple(slice(0, n) for n in a.shape)] = a
     return out

@@ -19,6 +19,7 @@ import numpy as np
 import xarray as xr
 
 from gbpipe.errors import DataError
+from gbpipe.lti import pad
 from gbpipe.model.fit import FitResult
 from gbpipe.model.frf import MOTOR_INPUTS, Pairing, pairing_frf
 from gbpipe.model.frf_data import FrfData, sigma_from_bounds
@@ -179,11 +180,9 @@ def fit_dataset(result: FitResult, data: Sequence[FrfData], prior_cfg: Mapping[s
     no = max(len(p.outputs) for p in pairings)
     ni = max(len(p.inputs) for p in pairings)
 
-    def pad(arrays: Sequence[np.ndarray], fill: float = np.nan) -> np.ndarray:
-        out = np.full((len(arrays), f.size, no, ni), fill, dtype=np.asarray(arrays[0]).dtype)
-        for k, a in enumerate(arrays):
-            out[k, :, :a.shape[1], :a.shape[2]] = a
-        return out
+    def stacked(arrays: Sequence[np.ndarray]) -> np.ndarray:
+        # pairings of unequal channel count on common (output, input) dimensions
+        return np.stack([pad(a, (f.size, no, ni)) for a in arrays])
 
     # the data on the whole grid (NaN marks what the fit left out: keep it for the figure)
     rows = [_model_index(identified, p.name, version) for p in pairings]
@@ -194,9 +193,9 @@ def fit_dataset(result: FitResult, data: Sequence[FrfData], prior_cfg: Mapping[s
         full.append((m.frf_identified_real + 1j * m.frf_identified_imag).values[:, :o, :i])
         lower.append(m.frf_identified_lower_db.values[:, :o, :i])
         upper.append(m.frf_identified_upper_db.values[:, :o, :i])
-    g_data = pad(full)
-    g_prior = pad(pairing_frf(prior_cfg, pairings, f))
-    g_fit = pad(pairing_frf(result.config, pairings, f))
+    g_data = stacked(full)
+    g_prior = stacked(pairing_frf(prior_cfg, pairings, f))
+    g_fit = stacked(pairing_frf(result.config, pairings, f))
     fitted = np.stack([d.mask.any(axis=(1, 2)) for d in data])
     if result.delay:    # the fitted model as the data see it: with the fitted delay
         g_fit = g_fit * np.exp(-2j * np.pi * f * result.delay)[None, :, None, None]
@@ -247,9 +246,9 @@ def fit_dataset(result: FitResult, data: Sequence[FrfData], prior_cfg: Mapping[s
                                  "identified FRF (the data), real part"),
             "frf_data_imag": var(fdim, g_data.imag, "mixed (see frf_unit)",
                                  "identified FRF (the data), imaginary part"),
-            "frf_data_lower_db": var(fdim, pad(lower), "dB",
+            "frf_data_lower_db": var(fdim, stacked(lower), "dB",
                                      "95 % lower bound of the identified magnitude"),
-            "frf_data_upper_db": var(fdim, pad(upper), "dB",
+            "frf_data_upper_db": var(fdim, stacked(upper), "dB",
                                      "95 % upper bound of the identified magnitude"),
             "frf_prior_real": var(fdim, g_prior.real, "mixed (see frf_unit)",
                                   "model FRF at the prior, real part"),

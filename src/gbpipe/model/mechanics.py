@@ -134,11 +134,6 @@ class Mechanism:
         """Reduced stiffness matrix [N·m/rad]."""
         return self.spring_matrices()[0]
 
-    @property
-    def damping_matrix(self) -> np.ndarray:
-        """Reduced damping matrix [N·m·s/rad]."""
-        return self.spring_matrices()[1]
-
     def spring_matrices(self, twist: Mapping[str, np.ndarray] | None = None
                         ) -> tuple[np.ndarray, np.ndarray]:
         """Reduced stiffness [N·m/rad] and damping [N·m·s/rad] matrices in one pass.
@@ -162,17 +157,12 @@ class Mechanism:
         """Generalised force of a torque [N·m] applied on a physical body: ``Tᵀ e_body``."""
         return sign * self.T[self.body_index[body]]
 
-    def angle_error_input(self, spring: str) -> np.ndarray:
-        """Generalised force of a prescribed angle error [rad] inside a spring.
+    def angle_error_inputs(self, springs: Sequence[str],
+                           twist: Mapping[str, np.ndarray] | None = None) -> list[np.ndarray]:
+        """Generalised forces of a prescribed angle error [rad] inside each spring.
 
         With rigid gears a transmission error is an angle added to the twist of the
         shaft next to the mesh, so it acts as the torque ``−k·e`` through that spring.
-        """
-        return self.angle_error_inputs([spring])[0]
-
-    def angle_error_inputs(self, springs: Sequence[str],
-                           twist: Mapping[str, np.ndarray] | None = None) -> list[np.ndarray]:
-        """:meth:`angle_error_input` of several springs.
 
         Parameters
         ----------
