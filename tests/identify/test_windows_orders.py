@@ -98,18 +98,27 @@ def test_orders_come_from_the_stabilization_result_with_their_source():
     assert orders == {"a": 12} and "method=pbsid" in prov["a"]
     s = {"order": "stabilization", "max_order": 26}
     assert row_order(s, "a", orders, prov) == (12, prov["a"])
-    # no diagram for it: the bound on the order, and it says so
+    # no diagram for it: no order (its rows fail), and it says why; no constant of the
+    # configured bench (max_order) stands in
     order, why = row_order(s, "c", orders, prov)
-    assert order == 26 and "no stabilization diagram" in why
+    assert order is None and "no stabilization diagram" in why
     assert row_order({"order": 24, "max_order": 26}, "a", None) == (24, "identify.order = 24")
 
 
-@pytest.mark.parametrize("value, pairings, what", [
-    (np.array([[np.nan, 18.0], [10.0, 14.0]]), ["a"], "not a positive integer"),
-    (np.array([[12.0, 18.0], [10.0, 14.0]]), ["c"], "no pairing 'c'")])
-def test_unusable_stabilization_orders_are_refused(value, pairings, what):
-    with pytest.raises(DataError, match=what):
-        stabilization_orders(_modes(value), "pbsid", pairings, "run12.nc")
+def test_unusable_stabilization_orders_are_refused():
+    with pytest.raises(DataError, match="no pairing 'c'"):
+        stabilization_orders(_modes(np.array([[12.0, 18.0], [10.0, 14.0]])), "pbsid", ["c"],
+                             "run12.nc")
+
+
+@pytest.mark.parametrize("value", [np.nan, 0.0])
+def test_a_pairing_without_a_stable_order_fails_alone(value):
+    # a diagram that found nothing for pairing a: a has no order and says why, b goes on
+    ds = _modes(np.array([[value, 18.0], [10.0, 14.0]]))
+    orders, prov = stabilization_orders(ds, "pbsid", ["a", "b"], "run12.nc")
+    assert orders == {"b": 18}
+    assert prov["a"].startswith("no model order") and "pairing=a" in prov["a"]
+    assert row_order({"order": "stabilization"}, "a", orders, prov) == (None, prov["a"])
 
 
 def test_measured_record_takes_a_validation_window_and_a_group():

@@ -30,12 +30,19 @@ import numpy as np
 import xarray as xr
 
 from gbpipe.identify.harmonic_lines import HarmonicBands, label_poles, record_harmonic_bands
+from gbpipe.identify.orders import order_windows
 from gbpipe.identify.prepare import ConditionedRecord
 from gbpipe.identify.reference import Reference, nonparametric_reference
 from gbpipe.io import longest_segment
-from gbpipe.sysid import Stabilization, lscf_stabilization, stabilization_diagram
+from gbpipe.lti import pad
+from gbpipe.sysid import (
+    Stabilization,
+    lowest_order,
+    lscf_stabilization,
+    stabilization_diagram,
+)
 
-__all__ = ["record_modes", "modes_table_rows", "TABLE_COLUMNS", "stabilization_orders"]
+__all__ = ["record_modes", "modes_table_rows", "TABLE_COLUMNS", "order_range"]
 
 log = logging.getLogger("gbpipe")
 
@@ -44,7 +51,7 @@ TABLE_COLUMNS = ("record", "pairing", "method", "frequency_hz", "damping",
                  "frequency_spread_hz", "damping_spread", "n_orders", "kind")
 
 
-def stabilization_orders(bounds: Sequence[int], step: int) -> np.ndarray:
+def order_range(bounds: Sequence[int], step: int) -> np.ndarray:
     """Model orders ``bounds[0], bounds[0] + step, ... <= bounds[1]`` (int array)."""
     return np.arange(int(bounds[0]), int(bounds[1]) + 1, int(step))
 
@@ -54,20 +61,21 @@ def _diagrams(u: np.ndarray, y: np.ndarray, ref: Reference, dt: float,
     # both diagrams of one pairing; a failure is kept as its reason (status), not raised
     st = s["stabilization"]
     crit = {k: st[k] for k in ("frequency_tolerance", "damping_tolerance", "mac_min")}
-    orders = stabilization_orders(st["orders"], st["step"])
+    orders = order_range(st["orders"], st["step"])
     # the windows of the identify stage, lengthened where the highest order needs more
-    # block rows than they give (future x outputs >= order): a diagram is read off
-    # one projection, so its windows must hold its largest order
-    future = max(int(s["future"]), -(-int(orders[-1]) // y.shape[1]))
-    windows = ({"past": max(int(s["past"]), future), "future": future}
+    # block rows than they give: a diagram is read off one projection, so its windows
+    # must hold its largest order (the identify stage lengthens them alike)
+    w = order_windows(s, int(orders[-1]), y.shape[1])
+    # and the identify stage's estimator: its factor, and PBSID's feedthrough
+    windows = ({**w, "feedthrough": bool(s["feedthrough"]), "factor": s["factor"]}
                if st["method"] == "pbsid" else
-               {"past": max(int(s["past"]), future + 1), "horizon": future + 1})
+               {"past": w["past"], "horizon": w["future"], "factor": s["factor"]})
     out: dict[str, Stabilization | str] = {}
     jobs = {st["method"]: lambda: stabilization_diagram(
                 u, y, dt, orders, st["method"], max_damping=s["zeta_max"], **windows,
                 **crit),
             "lscf": lambda: lscf_stabilization(
-                ref.frequency, ref.frf, stabilization_orders(st["lscf_orders"], 1), dt,
+                ref.frequency, ref.frf, order_range(st["lscf_orders"], 1), dt,
                 weights=_lscf_weights(ref),
                 max_damping=s["zeta_max"], **crit)}
     for method, job in jobs.items():
@@ -162,12 +170,9 @@ def record_modes(cfg: Mapping[str, Any], record: xr.Dataset,
     return _dataset(s, [p["name"] for p in s["pairings"]], results, refs, bands, record)
 
 
-def _pad(rows: list[np.ndarray], width: int, fill: float = np.nan) -> np.ndarray:
-    # ragged rows (each at most width long) -> one array padded with fill
-    out = np.full((len(rows), width), fill)
-    for i, r in enumerate(rows):
-        out[i, :len(r)] = r
-    return out
+def _ragged(rows: Sequence[np.ndarray], width: int, fill: float = np.nan) -> np.ndarray:
+    # one row per order (each at most width poles long), padded with fill
+    return np.array([pad(r, (width,), fill) for r in rows]).reshape(len(rows), width)
 
 
 def _indicator_db(ref: Reference) -> np.ndarray:
@@ -184,7 +189,7 @@ def _dataset(s: Mapping[str, Any], names: list[str], results: list[dict[str, Any
     f_lo, f_hi = float(s["frf"]["f_min"]), float(s["frf"]["f_max"])
     n_cl = max([len(r.clusters) for res in results for r in res.values()
                 if not isinstance(r, str)] + [1])
-    n_ord = max(len(stabilization_orders(s["stabilization"][k], st))
+    n_ord = max(len(order_range(s["stabilization"][k], st))
                 for k, st in (("orders", s["stabilization"]["step"]), ("lscf_orders", 1)))
     n_pole = max([len(p[0]) for res in results for r in res.values() if not isinstance(r, str)
                   for p in r.poles] + [1])
@@ -204,10 +209,13 @@ def _dataset(s: Mapping[str, Any], names: list[str], results: list[dict[str, Any
                 status[i, j] = r
                 continue
             order_of[i, :len(r.orders)] = r.orders
-            model_order[i, j] = r.order
             # the clusters in the FRF band: below it lie the rigid-body and control modes
             # the record is too short to resolve, above it the anti-aliasing filter's edge
             keep = [c for c, m in enumerate(r.clusters) if f_lo <= m.frequency_hz <= f_hi]
+            # the order the identify stage fits: the lowest that holds every cluster in
+            # the band (modes and order lines alike: the model must carry both); none: 0
+            model_order[i, j] = lowest_order(r.orders, r.poles, [r.clusters[k] for k in keep],
+                                             s["stabilization"]["frequency_tolerance"])
             if not keep:
                 status[i, j] = (f"no mode: no cluster of stable poles in {f_lo:g}-{f_hi:g} Hz")
             for c, m in enumerate(r.clusters[k] for k in keep):
@@ -217,11 +225,11 @@ def _dataset(s: Mapping[str, Any], names: list[str], results: list[dict[str, Any
             kind[i, j, :len(keep)] = label_poles(cl["f"][i, j, :len(keep)], bands)
             renumber = np.full(len(r.clusters) + 1, -1)  # stab's cluster -> kept; -1 stays
             renumber[keep] = np.arange(len(keep))
-            pf[i, j, :len(r.poles)] = _pad([p[0] for p in r.poles], n_pole)
-            pz[i, j, :len(r.poles)] = _pad([p[1] for p in r.poles], n_pole)
-            pstable[i, j, :len(r.poles)] = _pad(r.stable, n_pole, 0)
-            pcluster[i, j, :len(r.poles)] = _pad([renumber[lab] for lab in r.labels], n_pole,
-                                                 -1)
+            pf[i, j, :len(r.poles)] = _ragged([p[0] for p in r.poles], n_pole)
+            pz[i, j, :len(r.poles)] = _ragged([p[1] for p in r.poles], n_pole)
+            pstable[i, j, :len(r.poles)] = _ragged(r.stable, n_pole, 0)
+            pcluster[i, j, :len(r.poles)] = _ragged([renumber[lab] for lab in r.labels],
+                                                    n_pole, -1)
     dims_c, dims_p = ("method", "pairing", "cluster"), ("method", "pairing", "order_index",
                                                         "pole")
     f = refs[0].frequency

@@ -26,7 +26,7 @@ from gbpipe.identify.dataset import models_dataset
 from gbpipe.identify.fitting import METHODS, fit_model, fit_with_bounds, validation_fit
 from gbpipe.identify.harmonic_lines import label_poles, record_harmonic_bands
 from gbpipe.identify.metrics import identified_modes, match_modes
-from gbpipe.identify.orders import row_order
+from gbpipe.identify.orders import order_windows, row_order
 from gbpipe.identify.prepare import ConditionedRecord
 from gbpipe.identify.reference import (
     Reference,
@@ -48,6 +48,8 @@ def _fit_row(res: dict[str, Any], method: str, data: tuple[np.ndarray, ...], dt:
     # fit one pairing x version, score it against its reference; fills `res` in place
     u, y, uv, yv = data
     ref: Reference = res["ref"]
+    if s["order"] is None:  # identify.order: stabilization, and the diagram found none
+        raise ValueError(s["order_source"])
     if s["bounds"]["groups"] and method in s["bounds"]["methods"]:
         m, lower_db, upper_db = fit_with_bounds(method, u, y, dt, s, ref.frequency)
     else:  # no bounds for this method (identify.bounds)
@@ -55,8 +57,9 @@ def _fit_row(res: dict[str, Any], method: str, data: tuple[np.ndarray, ...], dt:
         lower_db = upper_db = np.full((ref.frequency.size, m.C.shape[0], m.B.shape[1]), np.nan)
     g_id = m.frf(ref.frequency)
     err = within_reference(g_id, ref, s["tolerance_db"])
-    # the hold-out fit: mean over the held-out windows (one per record); NaN stays NaN
-    fit = np.mean([validation_fit(m, a, b, int(round(s["fit_segment"] / dt)))
+    # the hold-out fit: the lowest over the held-out windows (one per record: a pooled
+    # model is as good as its worst repeat); NaN stays NaN
+    fit = np.min([validation_fit(m, a, b, int(round(s["fit_segment"] / dt)))
                    for a, b in zip(uv, yv, strict=True)], axis=0)
     fm_id, zm_id = identified_modes(m.A, dt, s["frf"]["f_max"], s["zeta_max"])
     tol = s["tolerance_db"]
@@ -130,7 +133,8 @@ def identify_methods(cfg: Mapping[str, Any], record: xr.Dataset | Sequence[xr.Da
     orders : mapping str -> int, optional
         Model order per pairing name (e.g. from the record's stabilization diagram:
         :func:`gbpipe.identify.orders.stabilization_orders`); a pairing absent from it is
-        fitted with ``identify.order`` (``stabilization`` without an order: ``auto``).
+        fitted with ``identify.order`` (``stabilization`` without an order: its rows
+        fail, saying why: :func:`gbpipe.identify.orders.row_order`).
     order_source : mapping str -> str, optional
         Where each order of ``orders`` came from (stored per model as ``order_source``).
     validation_window : (float, float), or a sequence of them (or None) per pooled record
@@ -239,7 +243,8 @@ def identify_methods(cfg: Mapping[str, Any], record: xr.Dataset | Sequence[xr.Da
     results: dict[str, list[dict[str, Any]]] = {method: [] for method in methods}
     for p, version, data, ref in rows:
         order, source = row_order(s, p["name"], orders, order_source)
-        s_row = {**s, "order": order}
+        s_row = {**s, "order": order, "order_source": source,
+                 **order_windows(s, order, len(p["outputs"]))}
         for method in methods:
             res = _identify_row(method, p, version, data, ref, dt, s_row)
             results[method].append({**res, "order_source": source})

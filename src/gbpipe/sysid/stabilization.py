@@ -30,7 +30,7 @@ from gbpipe.sysid.method_pbsid import pbsid_orders
 from gbpipe.sysid.open_loop import open_loop_orders
 
 __all__ = ["Mode", "Stabilization", "stabilization_diagram", "stabilize", "continuous_poles",
-           "check_orders", "check_criteria", "mac"]
+           "check_orders", "check_criteria", "mac", "lowest_order"]
 
 PoleSet = tuple[np.ndarray, np.ndarray, np.ndarray]
 
@@ -219,7 +219,7 @@ def stabilize(orders: np.ndarray, poles: list[PoleSet], method: str, *,
     modes = [modes[j] for j in rank]
     relabel = np.append(np.argsort(rank), -1)  # old index -> new; -1 stays -1
     labels = [relabel[lab] for lab in labels]
-    order = _lowest_order(orders, poles, modes, frequency_tolerance)
+    order = lowest_order(orders, poles, modes, frequency_tolerance)
     candidates.sort(key=lambda m: m.frequency_hz)
     return Stabilization(orders=orders, poles=poles, stable=stable, labels=labels,
                          clusters=modes, candidates=candidates, order=order, method=method)
@@ -268,7 +268,7 @@ def _mode(poles: list[PoleSet], group: list[tuple[int, int]]) -> Mode:
                 n_orders=len(group), shape=poles[k0][2][i0].copy())
 
 
-def _lowest_order(orders: np.ndarray, poles: list[PoleSet], modes: list[Mode],
+def lowest_order(orders: np.ndarray, poles: list[PoleSet], modes: list[Mode],
                   freq_tol: float) -> int:
     """Lowest order with a pole within the frequency tolerance of every mode.
 
