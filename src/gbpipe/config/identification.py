@@ -105,6 +105,29 @@ def _check_pairings(cfg: Mapping[str, Any]) -> None:
                               f"the configured ones; {suggest(idc['best'][key], valid)}")
 
 
+def _check_stabilization(cfg: Mapping[str, Any]) -> None:
+    # identify.order: stabilization and the order ranges of identify.stabilization
+    idc = cfg["identify"]
+    st = idc["stabilization"]
+    if idc["order"] == "stabilization" and not cfg["measured"]:
+        raise ConfigError("identify.order", "stabilization takes each bench record's order "
+                          "from its stabilization diagram, and there are no measured: "
+                          "records; for the simulated campaign use model, auto or an integer")
+    lo, hi = st["orders"]
+    if lo + st["step"] > hi:
+        raise ConfigError("identify.stabilization.orders", f"[{lo}, {hi}] with step "
+                          f"{st['step']} gives fewer than two orders: a diagram compares "
+                          f"consecutive orders; use an upper order >= {lo + st['step']}")
+    lo, hi = st["lscf_orders"]
+    # LSCF's denominator of order n needs more Welch lines than coefficients
+    lines = int(float(idc["nonparametric"]["segment"]) * float(idc["sample_rate"]) / 2)
+    if lo >= hi or hi + 1 >= lines:
+        raise ConfigError("identify.stabilization.lscf_orders", f"[{lo}, {hi}] must rise and "
+                          f"stay below the {lines} Welch lines of identify.nonparametric."
+                          f"segment = {idc['nonparametric']['segment']:g} s at "
+                          f"{idc['sample_rate']:g} Hz; use lscf_orders[1] <= {lines - 2}")
+
+
 def _check_windows(cfg: Mapping[str, Any]) -> None:
     idc = cfg["identify"]
     past, fut = int(idc["past"]), int(idc["future"])
@@ -167,5 +190,6 @@ def check_identify(cfg: Mapping[str, Any]) -> None:
     if not cfg["measured"]:
         _check_rates(cfg)
     _check_pairings(cfg)
+    _check_stabilization(cfg)
     if not cfg["measured"]:
         _check_windows(cfg)

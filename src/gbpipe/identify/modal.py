@@ -29,6 +29,7 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
+from gbpipe.identify.bench_data import operating_point_settle
 from gbpipe.identify.harmonic_lines import HarmonicBands, label_poles, record_harmonic_bands
 from gbpipe.identify.orders import order_windows
 from gbpipe.identify.prepare import ConditionedRecord
@@ -151,8 +152,13 @@ def record_modes(cfg: Mapping[str, Any], record: xr.Dataset,
     # before any long work: the bands need a usable tacho when orders are listed
     bands = record_harmonic_bands(record, orders, resolution,
                                   s["stabilization"]["shaft_harmonics"], s["frf"]["f_max"])
-    rec = ConditionedRecord(record, {}, float(record.attrs["sample_rate"]),
-                            float(cfg["campaign"]["settle"]), fs_id, s["lowpass"])
+    # the operating point as the identify stage takes it: the mean before the inputs'
+    # first excitation in the band (at most campaign.settle)
+    inputs = list(dict.fromkeys(n for p in s["pairings"] for n in p["inputs"]))
+    settle, _ = operating_point_settle(record, None, inputs, "raw",
+                                       float(cfg["campaign"]["settle"]), s)
+    rec = ConditionedRecord(record, {}, float(record.attrs["sample_rate"]), settle, fs_id,
+                            s["lowpass"])
     for p in s["pairings"]:  # every signal is there before the first (long) diagram
         rec(list(p["inputs"]) + list(p["outputs"]) + list(p.get("reference", [])), "raw")
     results, refs = [], []
