@@ -24,7 +24,7 @@ from gbpipe.identify.bench_data import bench_data, bench_sources
 from gbpipe.identify.checks import check_signals
 from gbpipe.identify.dataset import models_dataset
 from gbpipe.identify.fitting import METHODS, fit_model, fit_with_bounds, validation_fit
-from gbpipe.identify.harmonic_lines import label_poles, record_harmonic_bands
+from gbpipe.identify.harmonic_lines import HarmonicBands, label_poles, record_harmonic_bands
 from gbpipe.identify.metrics import identified_modes, match_modes
 from gbpipe.identify.orders import order_windows, row_order
 from gbpipe.identify.prepare import ConditionedRecord
@@ -211,6 +211,8 @@ def identify_methods(cfg: Mapping[str, Any], record: xr.Dataset | Sequence[xr.Da
         val = ConditionedRecord(validation, {v: tv for v, (_, tv) in rem.items()}, *grid)
     min_len = 2 * (int(s["past"]) + int(s["future"]))
 
+    # a bench record's order lines, where its nonparametric reference judges no model
+    bands = _line_bands(records, line_orders, s) if truth is None else []
     rows = []  # (pairing, version, data, reference): what every method fits and is scored on
     for p in s["pairings"]:
         ref_truth = truth_reference(truth, p, records[0]) if truth is not None else None
@@ -234,8 +236,7 @@ def identify_methods(cfg: Mapping[str, Any], record: xr.Dataset | Sequence[xr.Da
             else:
                 u, y = conditioned[0](p["inputs"], version), conditioned[0](p["outputs"], version)
                 uv, yv = [val(p["inputs"], version)], [val(p["outputs"], version)]
-            ref = ref_truth or _off_lines(nonparametric_reference(u, y, fs_id, s, r),
-                                          records, line_orders, s)
+            ref = ref_truth or _off_lines(nonparametric_reference(u, y, fs_id, s, r), bands)
             rows.append((p, version, (u, y, uv, yv), ref))
 
     # every method on one row before the next row: MOESP and N4SID of one data set share its
@@ -252,31 +253,26 @@ def identify_methods(cfg: Mapping[str, Any], record: xr.Dataset | Sequence[xr.Da
             for method in methods}
 
 
-def _line_mask(frequency: np.ndarray, records: Sequence[xr.Dataset],
-              line_orders: Sequence[float], s: Mapping[str, Any]) -> np.ndarray:
-    """True where a frequency [Hz] lies on an order line of any of ``records``.
+def _line_bands(records: Sequence[xr.Dataset], line_orders: Sequence[float],
+                s: Mapping[str, Any]) -> list[HarmonicBands]:
+    """The order-line bands of each of ``records`` (none without a tachometer).
 
-    The bands are :func:`gbpipe.identify.harmonic_lines.record_harmonic_bands` of each
-    record's tachometer (none without one), widened by the main-lobe half-width of the
-    nonparametric estimate's Hann window, ``2 / segment``: that far a line leaks into the
-    Welch estimate.
+    :func:`gbpipe.identify.harmonic_lines.record_harmonic_bands`, widened by the main-lobe
+    half-width of the nonparametric estimate's Hann window, ``2 / segment``: that far a
+    line leaks into the Welch estimate. Computed once per job, before any fit.
     """
     resolution = 2.0 / float(s["nonparametric"]["segment"])
-    on = np.zeros(np.shape(frequency), dtype=bool)
-    for rec in records:
-        if "pulse_time" not in rec and not len(line_orders):
-            continue  # no tacho, no listed orders: no lines to place
-        bands = record_harmonic_bands(rec, line_orders, resolution,
-                                      s["stabilization"]["shaft_harmonics"], s["frf"]["f_max"])
-        on |= label_poles(frequency, bands) == "harmonic"
-    return on
+    return [record_harmonic_bands(rec, line_orders, resolution,
+                                  s["stabilization"]["shaft_harmonics"], s["frf"]["f_max"])
+            for rec in records if "pulse_time" in rec or len(line_orders)]
 
 
-def _off_lines(ref: Reference, records: Sequence[xr.Dataset], line_orders: Sequence[float],
-               s: Mapping[str, Any]) -> Reference:
+def _off_lines(ref: Reference, bands: Sequence[HarmonicBands]) -> Reference:
     # the nonparametric reference judges nothing on an order line (see line_orders)
-    return ref._replace(assessable=ref.assessable & ~_line_mask(ref.frequency, records,
-                                                               line_orders, s))
+    on = np.zeros(ref.frequency.shape, dtype=bool)
+    for b in bands:
+        on |= label_poles(ref.frequency, b) == "harmonic"
+    return ref._replace(assessable=ref.assessable & ~on)
 
 
 def _identify_row(method: str, p: Mapping[str, Any], version: str,
