@@ -28,8 +28,19 @@ K = [1.2e4, 8.0e3, 2.0e4, 3.0e3]
 TEETH = (96, 29)
 
 
-def shaft_line() -> dict:
+def _params(seed: int | None) -> tuple[dict, list, tuple]:
+    """The nominal shaft line (seed None) or one drawn over decades of J, k and ratios."""
+    if seed is None:
+        return J, K, TEETH
+    rng = np.random.default_rng(seed)
+    j = {n: float(v) for n, v in zip(J, 10 ** rng.uniform(-3, 1, len(J)), strict=True)}
+    k = [float(v) for v in 10 ** rng.uniform(2, 6, len(K))]
+    return j, k, (int(rng.integers(20, 120)), int(rng.integers(12, 40)))
+
+
+def shaft_line(seed: int | None = None) -> dict:
     """A lab shaft line: speed-controlled motor, flywheel, gear pair, torque-loop load."""
+    J, K, TEETH = _params(seed)
     return {
         "name": "lab shaft line",
         "disks": {n: {"inertia": j} for n, j in J.items()},
@@ -56,8 +67,9 @@ def shaft_line() -> dict:
     }
 
 
-def _hand_mk() -> tuple[np.ndarray, np.ndarray, float]:
+def _hand_mk(seed: int | None) -> tuple[np.ndarray, np.ndarray, float]:
     """Reduced M, K on q = [motor, hub, flywheel, wheel, load]; pinion = r·wheel."""
+    J, K, TEETH = _params(seed)
     r = TEETH[0] / TEETH[1]
     M = np.diag([J["motor"], J["hub"], J["flywheel"], J["wheel"] + r ** 2 * J["pinion"],
                  J["load"]])
@@ -68,10 +80,12 @@ def _hand_mk() -> tuple[np.ndarray, np.ndarray, float]:
     return M, Kq, r
 
 
-def test_shaft_line_matrices_modes_and_damping():
-    chain = build_chain(shaft_line())
+@pytest.mark.parametrize("seed", [None, 1, 2, 3])
+def test_shaft_line_matrices_modes_and_damping(seed):
+    chain = build_chain(shaft_line(seed))
     mech = chain.mechanism
-    M, Kq, r = _hand_mk()
+    J, K, _ = _params(seed)
+    M, Kq, r = _hand_mk(seed)
     assert mech.coords == ["motor", "hub", "flywheel", "wheel", "load"]
     np.testing.assert_allclose(mech.mass_matrix, M, rtol=1e-12)
     np.testing.assert_allclose(mech.stiffness_matrix, Kq, rtol=1e-12)
