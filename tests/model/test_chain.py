@@ -249,3 +249,7 @@ def test_config_drivetrain_section_drives_the_models(cfg):
         validate(merge(cfg, {"drivetrain": _set(desc, ["gears", 0, "parent"], "x"),
                              "fit": {"records": []}}))
     assert exc.value.field == "drivetrain.gears[0].parent"
+    dotted = _set(desc, ["disks", "gb.spare"], {"inertia": 1.0})
+    with pytest.raises(ConfigError) as exc:
+        validate(merge(cfg, {"drivetrain": dotted, "fit": {"records": []}}))
+    assert exc.value.field == "drivetrain.disks.gb.spare"

@@ -12,6 +12,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 from typing import Any
 
+from gbpipe.errors import ConfigError
 from gbpipe.model.chain import build_chain
 from gbpipe.model.drivetrain import gearbox_chain, paper_chain
 
@@ -27,6 +28,12 @@ def check_drivetrain(cfg: Mapping[str, Any]) -> None:
         Naming the element's key path, what is wrong and the fix.
     """
     if cfg.get("drivetrain"):
+        for node in cfg["drivetrain"]["disks"]:
+            # a fit frees drivetrain.disks.<node>.inertia by key path: '.' and '[]' split it
+            if any(ch in node for ch in ".[]") or not node.strip():
+                raise ConfigError(f"drivetrain.disks.{node}", "a disk name may not be empty "
+                                  "or hold '.', '[' or ']' (key paths such as "
+                                  "drivetrain.disks.<name>.inertia split there); use '_'")
         build_chain(cfg["drivetrain"], "drivetrain")
     else:
         paper_chain(cfg, check=True)
