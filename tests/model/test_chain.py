@@ -253,3 +253,40 @@ def test_config_drivetrain_section_drives_the_models(cfg):
     with pytest.raises(ConfigError) as exc:
         validate(merge(cfg, {"drivetrain": dotted, "fit": {"records": []}}))
     assert exc.value.field == "drivetrain.disks.gb.spare"
+
+
+def test_stability_accepts_bounded_modes_at_zero(cfg):
+    """A mount turns the rigid angle into a static mode (the speed integrator against the
+    mount: no speed, a held torque); a cut shaft leaves two rigid parts, each with its
+    speed loop. Both are bounded eigenvalues at 0, not instability."""
+    grounded = shaft_line()
+    grounded["mounts"] = [{"name": "m", "node": "flywheel", "stiffness": 1.0e3}]
+    cut = shaft_line()
+    cut["shafts"] = [s for s in cut["shafts"] if s["name"] != "s3"]
+    cut["excitation"] = []
+    cut["motors"][1] |= {"sign": 1, "controller": {"type": "speed", "sensor": "speed_load",
+                                                   "kp": 0.1, "ki": 0.5}}
+    for desc, zeros in ((grounded, 1), (cut, 2)):
+        chain = build_chain(desc)
+        closed = close_loops(chain_plant(chain), chain.motors)
+        ev, vec = np.linalg.eig(closed.A)
+        scale = np.abs(ev).max()
+        at_zero = np.abs(ev) < 1e-9 * scale
+        assert at_zero.sum() == zeros
+        assert np.all(ev[~at_zero].real < 0)
+        n = len(chain.mechanism.coords)
+        if desc is grounded:      # the static mode: every speed zero, the integrator not
+            v = vec[:, np.argmax(at_zero)]
+            assert np.abs(v[n:2 * n]).max() < 1e-9 * np.abs(v).max()
+            assert abs(v[closed.states.index("integral_speed_error")]) > 0.1 * np.abs(v).max()
+        model.check_stability(merge(cfg, {"drivetrain": desc}))
+
+
+def test_a_part_whose_speed_nothing_holds_is_refused(cfg):
+    """Cut the line and leave the load part to its torque loop: its speed drifts."""
+    cut = shaft_line()
+    cut["shafts"] = [s for s in cut["shafts"] if s["name"] != "s3"]
+    cut["excitation"] = []
+    with pytest.raises(ConfigError) as exc:
+        model.check_stability(merge(cfg, {"drivetrain": cut}))
+    assert exc.value.field == "drivetrain.motors" and "speed" in exc.value.problem

@@ -30,10 +30,17 @@ def is_unstable(A: np.ndarray, n_integrators: int = 1) -> bool:
     return bool(near_zero.sum() > n_integrators or np.any(ev[~near_zero].real >= 0))
 
 
-def _zero_integrators(motors: list[Motor], gains: Mapping[str, tuple[float, float]]) -> int:
-    """Eigenvalues at 0 expected from the rigid body and the integrators with ki = 0."""
-    return 1 + sum(gains.get(m.name, (m.controller.kp, m.controller.ki))[1] == 0
-                   for m in motors if m.controller.type != "none")
+def _null_dimension(A: np.ndarray) -> int:
+    """Independent null vectors of ``A``: the eigenvalues at 0 that stay bounded.
+
+    Rigid-body angles, integrators with ki = 0, a speed integrator against a mount: each
+    a null vector of its own. Eigenvalues at 0 beyond these form a Jordan block (growth
+    like t), which :func:`is_unstable` then refuses. Exact null singular values are at
+    round-off (1e-17 of the largest for the paper's bench); the smallest true ones are
+    seven decades above, hence the 1e-12 threshold.
+    """
+    s = np.linalg.svd(A, compute_uv=False)
+    return int(np.sum(s <= 1e-12 * s.max()))
 
 
 def _controller_path(cfg: Mapping[str, Any], m: Motor) -> str:
@@ -47,7 +54,8 @@ def check_stability(cfg: Mapping[str, Any]) -> None:
     """Raise :class:`gbpipe.errors.UnstableGain` if the PI gains destabilise the bench.
 
     An integral gain of 0 (a P controller) is allowed: its integrator state is then an
-    uncoupled eigenvalue at 0, not an instability. The gains to blame are found by
+    uncoupled eigenvalue at 0, not an instability; likewise every eigenvalue at 0 with its
+    own null vector (:func:`_null_dimension`). The gains to blame are found by
     lowering one gain at a time (an integral or torque gain to zero, a speed proportional
     gain a hundredfold) and keeping those whose change alone makes the loop stable; the
     error names them.
@@ -67,7 +75,7 @@ def check_stability(cfg: Mapping[str, Any]) -> None:
     motors = [m for m in chain.motors if m.controller.type != "none"]
     plant = chain_plant(chain)
     A = close_loops(plant, chain.motors).A
-    if not is_unstable(A, _zero_integrators(motors, {})):
+    if not is_unstable(A, _null_dimension(A)):
         return
     trials = {}
     for m in motors:
@@ -76,13 +84,18 @@ def check_stability(cfg: Mapping[str, Any]) -> None:
         lower = kp * 0.01 if m.controller.type == "speed" else 0.0
         trials[f"{path}.kp"] = {m.name: (lower, ki)}
         trials[f"{path}.ki"] = {m.name: (kp, 0.0)}
-    culprits = [
-        name for name, gains in trials.items()
-        if not is_unstable(close_loops(plant, chain.motors, gains).A,
-                           _zero_integrators(motors, gains))
-    ] or list(trials)
+    trial_a = {name: close_loops(plant, chain.motors, gains).A
+               for name, gains in trials.items()}
+    culprits = [name for name, a in trial_a.items() if not is_unstable(a, _null_dimension(a))]
     ev = np.linalg.eigvals(A)
     worst = ev[np.argmax(ev.real)]
+    if not culprits and cfg.get("drivetrain"):
+        raise UnstableGain(
+            "drivetrain.motors",
+            f"the closed loop is unstable (pole at {worst.real:.3g} ± {abs(worst.imag):.3g}j "
+            "rad/s) and lowering no single gain helps: a part of the chain whose speed no "
+            "speed loop or mount holds drifts; give it a speed-controlled motor or a mount")
+    culprits = culprits or list(trials)
     others = f" (with {', '.join(culprits[1:])})" if culprits[1:] else ""
     raise UnstableGain(
         culprits[0],
