@@ -290,3 +290,21 @@ def test_a_part_whose_speed_nothing_holds_is_refused(cfg):
     with pytest.raises(ConfigError) as exc:
         model.check_stability(merge(cfg, {"drivetrain": cut}))
     assert exc.value.field == "drivetrain.motors" and "speed" in exc.value.problem
+
+
+def test_three_motors_batched_closing_equals_truth():
+    """Two loops to close around a one-input pairing: the matrix form of the closing."""
+    desc = shaft_line()
+    desc["sensors"].append({"name": "speed_flywheel", "speed": "flywheel"})
+    desc["motors"].append({"name": "aux", "node": "flywheel", "sign": 1,
+                           "controller": {"type": "speed", "sensor": "speed_flywheel",
+                                          "kp": 1.0, "ki": 3.0}})
+    cfg_desc = {"drivetrain": desc}
+    f = np.geomspace(0.5, 200.0, 25)
+    pairings = [Pairing("a", ("motor_torque_load",), ("speed_motor", "torque_s4")),
+                Pairing("b", ("motor_torque_aux", "motor_torque_driver"), ("speed_load",))]
+    for p, g in zip(pairings, pairing_frf(cfg_desc, pairings, f), strict=True):
+        ref = frf(model.truth_model(cfg_desc, p.inputs, p.outputs), f)
+        np.testing.assert_allclose(g, ref, rtol=1e-9, atol=1e-9 * np.abs(ref).max())
+    closed = model.bench_ss(cfg_desc)
+    assert closed.inputs[:3] == ["speed_ref_driver", "torque_ref", "speed_ref_aux"]
