@@ -191,8 +191,8 @@ def to_assembly(description: Mapping[str, Any], field: str = "drivetrain") -> An
     Parameters
     ----------
     description : mapping
-        ``disks``, ``shafts`` (with absolute ``damping``), ``mounts``, ``gears`` (with a
-        ``ratio``), as :func:`from_assembly` gives them.
+        ``disks``, ``shafts`` (with absolute ``damping``), ``mounts``, ``gears`` (a
+        ``ratio`` or ``teeth``), as :func:`from_assembly` gives them.
     field : str
         Key path named in errors.
 
@@ -204,7 +204,7 @@ def to_assembly(description: Mapping[str, Any], field: str = "drivetrain") -> An
     ------
     ConfigError
         openTorsion is not installed; an entry openTorsion cannot hold (a planetary
-        stage, a gear in a rotating housing) or given by ``teeth`` or ``damping_ratio``.
+        stage, a gear in a rotating housing) or given by ``damping_ratio``.
     """
     ot = _opentorsion(field)
     if description.get("planetary"):
@@ -215,9 +215,9 @@ def to_assembly(description: Mapping[str, Any], field: str = "drivetrain") -> An
                 raise ConfigError(f"{field}.{kind}[{i}].damping_ratio", "openTorsion "
                                   "takes an absolute damping: give damping [N·m·s/rad]")
     for i, g in enumerate(description.get("gears", [])):
-        if g.get("housing") is not None or "ratio" not in g:
-            raise ConfigError(f"{field}.gears[{i}]", "openTorsion takes a mesh by its "
-                              "ratio, with fixed bearings: give ratio, no housing")
+        if g.get("housing") is not None:
+            raise ConfigError(f"{field}.gears[{i}].housing", "openTorsion 0.3 has no gear "
+                              "in a rotating housing (its meshes have fixed bearings)")
     names = list(description["disks"])
     number = {n: i for i, n in enumerate(names)}
     inertia = {n: float(description["disks"][n]["inertia"]) for n in names}
@@ -234,9 +234,14 @@ def to_assembly(description: Mapping[str, Any], field: str = "drivetrain") -> An
         # parents first: a child's radius follows its parent's
         if name not in elements:
             g = parent_of.get(name)
-            parent = None if g is None else _gear(g["parent"])
-            radius = 1.0 if g is None else parent.R / float(g["ratio"])
-            elements[name] = ot.Gear(number[name], inertia[name], radius, parent=parent)
+            if g is None:
+                elements[name] = ot.Gear(number[name], inertia[name], 1.0)
+            else:
+                parent = _gear(g["parent"])
+                ratio = (float(g["ratio"]) if "ratio" in g
+                         else int(g["teeth"][0]) / int(g["teeth"][1]))
+                elements[name] = ot.Gear(number[name], inertia[name], parent.R / ratio,
+                                         parent=parent)
         return elements[name]
 
     gears = [_gear(n) for n in names if n in geared]
