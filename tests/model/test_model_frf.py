@@ -83,5 +83,5 @@ def test_key_paths(cfg):
     for bad in ("gearbox.stiffness[7]", "gearbox..inertia", "gearbox.housing", "nope"):
         with pytest.raises(ConfigError):
             get_value(cfg, bad)
-    with pytest.raises(ConfigError, match="one or both"):
+    with pytest.raises(ConfigError, match="motor torques"):
         Pairing("x", ("speed_ref",), ("speed_gb2_hss",))

@@ -34,6 +34,7 @@ import yaml
 from gbpipe.config import (
     bounds,
     designed,
+    drivetrain,
     fit,
     gearbox,
     identification,
@@ -92,6 +93,7 @@ def validate(cfg: Mapping[str, Any], *, check_stability: bool = True) -> Config:
     out = apply_schema(cfg)
     gearbox.check_gearbox(out)
     gearbox.check_cycle_names(out)
+    drivetrain.check_drivetrain(out)
     out = derive(out, bounds.order_bound, bounds.plant_order)
     records.check_campaign(out)
     designed.check_designed(out)

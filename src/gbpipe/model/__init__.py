@@ -13,6 +13,9 @@ check_stability(cfg)
 truth_model, true_modes, truth_dataset
     The true model of an identification pairing, its modes, and all pairings' FRFs and
     modes as an ``xarray.Dataset`` (``results/model/truth.nc``).
+build_chain, Chain, paper_drivetrain, bench_chain
+    Any torsional chain from its ``drivetrain:`` description (docs/drivetrain.md); the
+    paper's bench as one such description; the config's bench built.
 gearbox_mechanism, bench_mechanism, Mechanism, Body, Spring
     The mechanisms behind the state spaces.
 model_datasets(cfg, truth_cfg)
@@ -37,8 +40,9 @@ See docs/architecture.md, "Physics".
 
 from __future__ import annotations
 
-from gbpipe.model.assembly import bench_ss, gearbox_ss
-from gbpipe.model.drivetrain import bench_mechanism, gearbox_mechanism
+from gbpipe.model.assembly import bench_chain, bench_ss, gearbox_ss
+from gbpipe.model.chain import Chain, build_chain
+from gbpipe.model.drivetrain import bench_mechanism, gearbox_mechanism, paper_drivetrain
 from gbpipe.model.fit import FitResult, fit_parameters
 from gbpipe.model.fit_bands import jackknife_intervals
 from gbpipe.model.fit_stage import assessable_band, fit_data, fit_dataset, parameter_unit
@@ -48,12 +52,19 @@ from gbpipe.model.identifiability import Identifiability, analyse, design_output
 from gbpipe.model.mechanics import Body, Mechanism, Spring
 from gbpipe.model.stability import check_stability
 from gbpipe.model.stage import model_datasets
-from gbpipe.model.truth import TORQUES, true_modes, truth_dataset, truth_model
+from gbpipe.model.truth import (
+    TORQUES,
+    identification_inputs,
+    true_modes,
+    truth_dataset,
+    truth_model,
+)
 
 __all__ = [
     "gearbox_ss", "bench_ss", "check_stability", "truth_model", "true_modes",
     "truth_dataset", "TORQUES", "Mechanism", "Body", "Spring", "gearbox_mechanism",
-    "bench_mechanism", "model_datasets", "Pairing", "pairing_frf", "FrfData",
+    "bench_mechanism", "build_chain", "Chain", "paper_drivetrain", "bench_chain",
+    "identification_inputs", "model_datasets", "Pairing", "pairing_frf", "FrfData",
     "sigma_from_coherence", "sigma_from_bounds", "fit_parameters", "FitResult",
     "Identifiability", "analyse", "design_outputs", "fit_data", "fit_dataset",
     "parameter_unit", "jackknife_intervals", "assessable_band",

@@ -9,14 +9,15 @@ so this module takes a shorter, equally exact path:
    solve of the n = 12 coordinate equations ``(s² I − s A₂₂ − A₂₁) X = B₂`` (``A₂₁ = −M⁻¹K``,
    ``A₂₂ = −M⁻¹C``, ``B₂ = M⁻¹B_q``: the same matrices, half the size), for both motor
    torques at once;
-2. each pairing's other loop is closed on that FRF in the frequency domain: the motor
-   outside the pairing applies ``−K(s)·m`` with its PI law ``K(s) = k_p + k_i/s`` on its
-   measurement ``m`` (driver: its own speed; driven: the driven torque meter), so
+2. the loops of the controlled motors outside the pairing are closed on that FRF in the
+   frequency domain: such a motor applies ``−K(s)·m`` with its PI law
+   ``K(s) = k_p + k_i/s`` on its measurement ``m`` (the paper's driver: its own speed;
+   driven: the driven torque meter), so
 
-   ``G_cl = G_yu − G_yo · K·G_mu / (1 + K·G_mo)``
+   ``G_cl = G_yS − G_yO (I + K·G_mO)⁻¹ K·G_mS``
 
-   (``u`` the pairing's motor, ``o`` the other one). Set-point weight and feed-forward act
-   on the references only, which are not inputs of a pairing.
+   (``S`` the pairing's motors, ``O`` the others, ``K`` diagonal). Set-point weight and
+   feed-forward act on the references only, which are not inputs of a pairing.
 
 The result equals ``frf(truth_model(cfg, inputs, outputs), f)`` to round-off (tested to
 1e-9 relative), at about 2 ms for all pairings. See docs/fit.md.
@@ -32,16 +33,16 @@ import numpy as np
 
 from gbpipe.errors import ConfigError
 from gbpipe.lti import NamedSS
-from gbpipe.model.assembly import bench_ss
+from gbpipe.model.assembly import bench_chain
+from gbpipe.model.chain import Chain, Motor
+from gbpipe.model.statespace import chain_plant
 
 __all__ = ["Pairing", "MOTOR_INPUTS", "mechanical_frf", "plant_frf", "close_loops",
            "pairing_frf"]
 
-#: The two plant inputs a pairing may use [N·m] (the recorded motor torques).
+#: The paper bench's two plant inputs a pairing may use [N·m] (the recorded motor
+#: torques); any drivetrain: ``motor_torque_<motor>`` of its motors.
 MOTOR_INPUTS = ("motor_torque_driver", "motor_torque_driven")
-# the measurement each motor's own loop feeds back (gbpipe.model.statespace.close_bench_loops)
-_LOOP_MEASUREMENT = {"motor_torque_driver": "speed_driver_motor",
-                     "motor_torque_driven": "torque_meter_driven"}
 
 
 @dataclass(frozen=True)
@@ -53,7 +54,8 @@ class Pairing:
     name : str
         E.g. ``Tdrv_to_wdrv``.
     inputs : tuple of str
-        One or both of :data:`MOTOR_INPUTS` [N·m].
+        Motor torques ``motor_torque_<motor>`` [N·m] (the paper: one or both of
+        :data:`MOTOR_INPUTS`).
     outputs : tuple of str
         Outputs of the open-loop bench (:func:`gbpipe.model.bench_ss` with
         ``closed=False``), e.g. ``speed_gb2_hss`` [rad/s], ``torque_meter_driven`` [N·m].
@@ -65,9 +67,11 @@ class Pairing:
 
     def __post_init__(self) -> None:
         ins = list(self.inputs)
-        if not ins or len(set(ins)) != len(ins) or any(u not in MOTOR_INPUTS for u in ins):
+        if (not ins or len(set(ins)) != len(ins)
+                or any(not u.startswith("motor_torque_") for u in ins)):
             raise ConfigError(f"pairing {self.name}.inputs",
-                              f"{ins} must be one or both of {', '.join(MOTOR_INPUTS)}")
+                              f"{ins} must be motor torques motor_torque_<motor>, each once "
+                              f"(the paper: {', '.join(MOTOR_INPUTS)})")
         if not self.outputs:
             raise ConfigError(f"pairing {self.name}.outputs", "name at least one output")
 
@@ -121,12 +125,12 @@ def mechanical_frf(ss: NamedSS, f_hz: Any) -> np.ndarray:
 
 
 def plant_frf(cfg: Mapping[str, Any], f_hz: Any, outputs: Sequence[str]) -> np.ndarray:
-    """FRF of the open-loop bench from both motor torques to ``outputs``.
+    """FRF of the open-loop bench from every motor torque to ``outputs``.
 
     Parameters
     ----------
     cfg : mapping
-        Validated configuration (``gearbox``, ``bench``).
+        Validated configuration (``gearbox``, ``bench``, or ``drivetrain``).
     f_hz : array_like
         Frequencies [Hz].
     outputs : sequence of str
@@ -134,33 +138,33 @@ def plant_frf(cfg: Mapping[str, Any], f_hz: Any, outputs: Sequence[str]) -> np.n
 
     Returns
     -------
-    ndarray, complex, shape (n_freq, len(outputs), 2)
-        Inputs in the order of :data:`MOTOR_INPUTS` (the driven one is the braking torque).
+    ndarray, complex, shape (n_freq, len(outputs), n_motors)
+        Inputs ``motor_torque_<motor>`` in motor order (the paper: :data:`MOTOR_INPUTS`;
+        the driven one is the braking torque).
     """
-    plant = bench_ss(cfg, closed=False).select(list(MOTOR_INPUTS), list(outputs))
+    return _chain_plant_frf(bench_chain(cfg), f_hz, outputs)
+
+
+def _chain_plant_frf(chain: Chain, f_hz: Any, outputs: Sequence[str]) -> np.ndarray:
+    plant = chain_plant(chain).select([m.input for m in chain.motors], list(outputs))
     return mechanical_frf(plant, f_hz)
 
 
-def _pi(cfg_bench: Mapping[str, Any], motor: str, s: np.ndarray) -> np.ndarray:
-    ctrl = cfg_bench["speed_controller" if motor == MOTOR_INPUTS[0] else "torque_controller"]
-    return float(ctrl["kp"]) + float(ctrl["ki"]) / s
-
-
 def close_loops(g: np.ndarray, outputs: Sequence[str], pairing: Pairing,
-                cfg_bench: Mapping[str, Any], f_hz: Any) -> np.ndarray:
-    """A pairing's FRF from the open-loop plant FRF: the other motor's loop closed.
+                motors: Sequence[Motor], f_hz: Any) -> np.ndarray:
+    """A pairing's FRF from the open-loop plant FRF: the other motors' loops closed.
 
     Parameters
     ----------
-    g : ndarray, complex, shape (n_freq, len(outputs), 2)
-        :func:`plant_frf` on ``outputs``, which must hold the pairing's outputs and, for a
-        one-input pairing, the other loop's measurement (``speed_driver_motor`` or
-        ``torque_meter_driven``).
+    g : ndarray, complex, shape (n_freq, len(outputs), len(motors))
+        :func:`plant_frf` on ``outputs``, which must hold the pairing's outputs and the
+        measurement of every controlled motor outside the pairing (the paper:
+        ``speed_driver_motor``, ``torque_meter_driven``).
     outputs : sequence of str
         Names of the rows of ``g``.
     pairing : Pairing
-    cfg_bench : mapping
-        ``cfg["bench"]`` (the PI gains).
+    motors : sequence of Motor
+        The bench's motors (:attr:`gbpipe.model.chain.Chain.motors`), the columns of ``g``.
     f_hz : array_like
         The frequencies of ``g`` [Hz] (nonzero).
 
@@ -171,16 +175,22 @@ def close_loops(g: np.ndarray, outputs: Sequence[str], pairing: Pairing,
     """
     outputs = list(outputs)
     rows = [outputs.index(o) for o in pairing.outputs]
-    if len(pairing.inputs) == 2:
-        return g[:, rows][:, :, [MOTOR_INPUTS.index(u) for u in pairing.inputs]]
-    u = pairing.inputs[0]
-    other = MOTOR_INPUTS[1 - MOTOR_INPUTS.index(u)]
-    ku, ko = MOTOR_INPUTS.index(u), MOTOR_INPUTS.index(other)
-    m = outputs.index(_LOOP_MEASUREMENT[other])
-    k = _pi(cfg_bench, other, 2j * np.pi * np.asarray(f_hz, dtype=float).ravel())
-    # the other motor's torque is −K·m: solve m = G_mu u − G_mo K m for m, then y
-    loop = k * g[:, m, ku] / (1.0 + k * g[:, m, ko])
-    return (g[:, rows, ku] - g[:, rows, ko] * loop[:, None])[:, :, None]
+    cols = {m.input: j for j, m in enumerate(motors)}
+    ks = [cols[u] for u in pairing.inputs]
+    gy = g[:, rows][:, :, ks]
+    others = [(j, m) for j, m in enumerate(motors)
+              if m.input not in pairing.inputs and m.controller.type != "none"]
+    if not others:
+        return gy
+    ko = [j for j, _ in others]
+    ms = [outputs.index(m.controller.sensor) for _, m in others]
+    s = 2j * np.pi * np.asarray(f_hz, dtype=float).ravel()
+    k = np.stack([m.controller.kp + m.controller.ki / s for _, m in others], axis=1)
+    # the other motors' torques are −K·m: solve (I + K G_mO) τ = −K G_mS u, then y
+    g_mo = g[:, ms][:, :, ko]
+    lhs = np.eye(len(ko)) + k[:, :, None] * g_mo
+    tau = np.linalg.solve(lhs, k[:, :, None] * g[:, ms][:, :, ks])
+    return gy - g[:, rows][:, :, ko] @ tau
 
 
 def pairing_frf(cfg: Mapping[str, Any], pairings: Sequence[Pairing],
@@ -190,7 +200,7 @@ def pairing_frf(cfg: Mapping[str, Any], pairings: Sequence[Pairing],
     Parameters
     ----------
     cfg : mapping
-        Validated configuration (``gearbox``, ``bench``).
+        Validated configuration (``gearbox``, ``bench``, or ``drivetrain``).
     pairings : sequence of Pairing
     f_hz : array_like
         Frequencies [Hz], nonzero.
@@ -201,20 +211,18 @@ def pairing_frf(cfg: Mapping[str, Any], pairings: Sequence[Pairing],
         One per pairing, in output units per input unit (rad/s per N·m for speeds).
     """
     f = np.atleast_1d(np.asarray(f_hz, dtype=float)).ravel()
+    chain = bench_chain(cfg)
+    motors = chain.motors
     outputs = list(dict.fromkeys([o for p in pairings for o in p.outputs]
-                                 + list(_LOOP_MEASUREMENT.values())))
-    g = plant_frf(cfg, f, outputs)
-    # a one-input pairing is some rows of its input's closed loop: close each loop once, on
-    # every output, for all the pairings that share it (the same numbers, fewer operations)
-    closed: dict[str, np.ndarray] = {}
-    out = []
+                                 + [m.controller.sensor for m in motors
+                                    if m.controller.type != "none"]))
+    g = _chain_plant_frf(chain, f, outputs)
+    # a pairing is some rows of its inputs' closed loop: close the loops once per input
+    # set, on every output, for all the pairings that share it (the same numbers, fewer
+    # operations)
+    closed: dict[tuple[str, ...], np.ndarray] = {}
     for p in pairings:
-        if len(p.inputs) == 2:
-            out.append(close_loops(g, outputs, p, cfg["bench"], f))
-            continue
-        u = p.inputs[0]
-        if u not in closed:
-            closed[u] = close_loops(g, outputs, Pairing(u, (u,), tuple(outputs)),
-                                    cfg["bench"], f)
-        out.append(closed[u][:, [outputs.index(o) for o in p.outputs]])
-    return out
+        if p.inputs not in closed:
+            closed[p.inputs] = close_loops(g, outputs, Pairing("all", p.inputs,
+                                                               tuple(outputs)), motors, f)
+    return [closed[p.inputs][:, [outputs.index(o) for o in p.outputs]] for p in pairings]

@@ -8,7 +8,9 @@ from typing import Any
 import numpy as np
 
 from gbpipe.errors import UnstableGain
-from gbpipe.model.assembly import bench_ss
+from gbpipe.model.assembly import bench_chain
+from gbpipe.model.chain import Motor
+from gbpipe.model.statespace import chain_plant, close_loops
 
 __all__ = ["check_stability", "is_unstable"]
 
@@ -28,10 +30,17 @@ def is_unstable(A: np.ndarray, n_integrators: int = 1) -> bool:
     return bool(near_zero.sum() > n_integrators or np.any(ev[~near_zero].real >= 0))
 
 
-def _zero_integrators(speed_gains: tuple[float, float],
-                      torque_gains: tuple[float, float]) -> int:
+def _zero_integrators(motors: list[Motor], gains: Mapping[str, tuple[float, float]]) -> int:
     """Eigenvalues at 0 expected from the rigid body and the integrators with ki = 0."""
-    return 1 + (speed_gains[1] == 0) + (torque_gains[1] == 0)
+    return 1 + sum(gains.get(m.name, (m.controller.kp, m.controller.ki))[1] == 0
+                   for m in motors if m.controller.type != "none")
+
+
+def _controller_path(cfg: Mapping[str, Any], m: Motor) -> str:
+    """Key path of a motor's controller in the config."""
+    if cfg.get("drivetrain"):
+        return f"drivetrain.motors[{m.index}].controller"
+    return f"bench.{m.controller.type}_controller"
 
 
 def check_stability(cfg: Mapping[str, Any]) -> None:
@@ -39,35 +48,38 @@ def check_stability(cfg: Mapping[str, Any]) -> None:
 
     An integral gain of 0 (a P controller) is allowed: its integrator state is then an
     uncoupled eigenvalue at 0, not an instability. The gains to blame are found by
-    lowering one gain at a time (an integral or torque gain to zero, the speed
-    proportional gain a hundredfold) and keeping those whose change alone makes the loop
-    stable; the error names them.
+    lowering one gain at a time (an integral or torque gain to zero, a speed proportional
+    gain a hundredfold) and keeping those whose change alone makes the loop stable; the
+    error names them.
 
     Parameters
     ----------
     cfg : mapping
-        Configuration with ``gearbox`` and ``bench`` (defaults applied).
+        Configuration with ``gearbox`` and ``bench`` (defaults applied), or
+        ``drivetrain``.
 
     Raises
     ------
     gbpipe.errors.UnstableGain
         ``field`` is the key path of the first gain to lower, the message names all.
     """
-    sc, tc = cfg["bench"]["speed_controller"], cfg["bench"]["torque_controller"]
-    sg, tg = (float(sc["kp"]), float(sc["ki"])), (float(tc["kp"]), float(tc["ki"]))
-    A = bench_ss(cfg).A
-    if not is_unstable(A, _zero_integrators(sg, tg)):
+    chain = bench_chain(cfg)
+    motors = [m for m in chain.motors if m.controller.type != "none"]
+    plant = chain_plant(chain)
+    A = close_loops(plant, chain.motors).A
+    if not is_unstable(A, _zero_integrators(motors, {})):
         return
-    trials = {
-        "bench.speed_controller.kp": ((sg[0] * 0.01, sg[1]), tg),
-        "bench.speed_controller.ki": ((sg[0], 0.0), tg),
-        "bench.torque_controller.kp": (sg, (0.0, tg[1])),
-        "bench.torque_controller.ki": (sg, (tg[0], 0.0)),
-    }
+    trials = {}
+    for m in motors:
+        kp, ki = m.controller.kp, m.controller.ki
+        path = _controller_path(cfg, m)
+        lower = kp * 0.01 if m.controller.type == "speed" else 0.0
+        trials[f"{path}.kp"] = {m.name: (lower, ki)}
+        trials[f"{path}.ki"] = {m.name: (kp, 0.0)}
     culprits = [
-        name for name, (s_g, t_g) in trials.items()
-        if not is_unstable(bench_ss(cfg, speed_gains=s_g, torque_gains=t_g).A,
-                           _zero_integrators(s_g, t_g))
+        name for name, gains in trials.items()
+        if not is_unstable(close_loops(plant, chain.motors, gains).A,
+                           _zero_integrators(motors, gains))
     ] or list(trials)
     ev = np.linalg.eigvals(A)
     worst = ev[np.argmax(ev.real)]

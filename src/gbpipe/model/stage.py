@@ -12,9 +12,9 @@ from typing import Any
 
 import xarray as xr
 
-from gbpipe.model.assembly import bench_ss, gearbox_ss
+from gbpipe.model.assembly import bench_chain, bench_ss, gearbox_ss
 from gbpipe.model.dataset import frequency_grid, statespace_dataset
-from gbpipe.model.drivetrain import bench_mechanism, gearbox_mechanism
+from gbpipe.model.drivetrain import gearbox_mechanism
 from gbpipe.model.truth import truth_dataset
 
 __all__ = ["model_datasets", "GEAR_DAMPING_NOTE", "PLANT_FRF_INPUTS", "PLANT_FRF_OUTPUTS",
@@ -65,7 +65,7 @@ def model_datasets(cfg: Mapping[str, Any], truth_cfg: Mapping[str, Any]
     gearbox = statespace_dataset(gearbox_ss(cfg), f, mech=gb_mech)
     gearbox.attrs["gear_damping_note"] = GEAR_DAMPING_NOTE
 
-    b_mech, _ = bench_mechanism(cfg)
+    b_mech = bench_chain(cfg).mechanism
     bench = statespace_dataset(bench_ss(cfg, closed=False), f, prefix="plant_", mech=b_mech,
                                frf_inputs=list(PLANT_FRF_INPUTS),
                                frf_outputs=list(PLANT_FRF_OUTPUTS))

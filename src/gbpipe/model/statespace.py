@@ -1,4 +1,4 @@
-"""Named state-space matrices of mechanisms, open loop and with the bench's PI loops.
+"""Named state-space matrices of mechanisms, open loop and with their motors' loops.
 
 Matrices are built with numpy only (cheap: config validation checks closed-loop stability
 without importing python-control) as :class:`gbpipe.lti.NamedSS`;
@@ -8,15 +8,15 @@ the public boundary (:mod:`gbpipe.model.control_models`).
 
 from __future__ import annotations
 
-from collections.abc import Mapping
-from typing import Any
+from collections.abc import Mapping, Sequence
 
 import numpy as np
 
 from gbpipe.lti import NamedSS
+from gbpipe.model.chain import Chain, Motor
 from gbpipe.model.mechanics import Mechanism
 
-__all__ = ["mechanism_ss", "close_bench_loops"]
+__all__ = ["mechanism_ss", "chain_plant", "loop_names", "close_loops"]
 
 
 def mechanism_ss(mech: Mechanism, torque_inputs: Mapping[str, tuple[str, float]],
@@ -85,83 +85,112 @@ def mechanism_ss(mech: Mechanism, torque_inputs: Mapping[str, tuple[str, float]]
     return NamedSS(A, B, C, D, states, inputs, outputs, units)
 
 
-def close_bench_loops(plant: NamedSS, bench_cfg: Mapping[str, Any],
-                      speed_gains: tuple[float, float] | None = None,
-                      torque_gains: tuple[float, float] | None = None) -> NamedSS:
-    """Close the bench's two PI loops around the open-loop plant.
+def chain_plant(chain: Chain) -> NamedSS:
+    """Open-loop state space of a built drivetrain (docs/drivetrain.md, "Plant").
 
-    Driver motor (speed loop, on the driver-motor speed ``speed_driver_motor``)::
+    Inputs ``motor_torque_<motor>`` [N·m] (motor order), then the excitation angles [rad];
+    outputs the speed [rad/s], torque [N·m] and angle [rad] sensors.
+    """
+    return mechanism_ss(chain.mechanism, {m.input: (m.node, m.sign) for m in chain.motors},
+                        chain.excitation, chain.speed_sensors, chain.torque_sensors,
+                        chain.angle_sensors)
 
-        T_driver = Kp·(b·ω_ref − ω) + Ki·∫(ω_ref − ω) dt + d_driver
 
-    Driven motor (braking-torque loop, on the driven torque meter)::
+def loop_names(motors: Sequence[Motor]) -> dict[str, tuple[str, str]]:
+    """Reference input and integrator state of each controlled motor, by motor name.
 
-        T_brake = ff·T_ref + Kp_t·(T_ref − T_meter) + Ki_t·∫(T_ref − T_meter) dt + d_driven
+    ``speed_ref``/``integral_speed_error`` (``torque_ref``/``integral_torque_error``) when
+    exactly one motor has a controller of that type, else suffixed ``_<motor>``
+    (docs/drivetrain.md, "Names of the closed-loop signals").
+    """
+    types = [m.controller.type for m in motors]
+    out = {}
+    for m in motors:
+        t = m.controller.type
+        if t == "none":
+            continue
+        tail = "" if types.count(t) == 1 else f"_{m.name}"
+        out[m.name] = (f"{t}_ref{tail}", f"integral_{t}_error{tail}")
+    return out
+
+
+def close_loops(plant: NamedSS, motors: Sequence[Motor],
+                gains: Mapping[str, tuple[float, float]] | None = None) -> NamedSS:
+    """Close every motor's control loop around the open-loop plant.
+
+    Per motor (torque ``T`` in its own sign, the plant input ``motor_torque_<name>``)::
+
+        speed:  T = kp·(b·ω_ref − ω) + ki·∫(ω_ref − ω) dt + d
+        torque: T = ff·T_ref + kp·(T_ref − T_m) + ki·∫(T_ref − T_m) dt + d
+        none:   T = d
+
+    with ``d`` the input ``disturbance_<name>`` [N·m] and ``ω`` [rad/s] / ``T_m`` [N·m]
+    the controller's sensor (including any excitation feed-through of a torque sensor).
 
     Parameters
     ----------
     plant : NamedSS
-        Open-loop bench with inputs ``motor_torque_driver``, ``motor_torque_driven``
-        first, then excitation inputs.
-    bench_cfg : mapping
-        ``cfg["bench"]``.
-    speed_gains, torque_gains : (kp, ki), optional
-        Override the configured gains (used to find which gain makes a loop unstable).
+        Open-loop chain (:func:`mechanism_ss`) with inputs ``motor_torque_<name>`` of
+        every motor, then excitation inputs.
+    motors : sequence of Motor
+        :attr:`gbpipe.model.chain.Chain.motors`.
+    gains : mapping, optional
+        Motor name → (kp, ki) replacing its configured gains (zero gains open a loop for
+        a truth model; the stability check lowers one gain at a time).
 
     Returns
     -------
     NamedSS
-        Inputs ``speed_ref`` [rad/s], ``torque_ref`` [N·m], ``disturbance_driver``,
-        ``disturbance_driven`` [N·m], then the plant's excitation inputs; outputs the
-        plant's outputs plus both motor torques; states the plant's plus the two
-        controller integrators.
+        Inputs: the references (:func:`loop_names`, motor order) [rad/s or N·m],
+        ``disturbance_<name>`` of every motor [N·m], then the plant's excitation inputs;
+        outputs: the plant's, then ``motor_torque_<name>`` [N·m]; states: the plant's, then
+        the integrators (``integral_speed_error`` [rad], ``integral_torque_error``
+        [N·m·s]).
     """
-    sc, tc = bench_cfg["speed_controller"], bench_cfg["torque_controller"]
-    kp, ki = speed_gains or (float(sc["kp"]), float(sc["ki"]))
-    kpt, kit = torque_gains or (float(tc["kp"]), float(tc["ki"]))
-    b = float(sc["setpoint_weight"])
-    ff = float(tc["feedforward"])
-    i_drv, i_brk = plant.index("input", "motor_torque_driver"), plant.index(
-        "input", "motor_torque_driven")
-    exc = [i for i in range(len(plant.inputs)) if i not in (i_drv, i_brk)]
-    cw = plant.C[plant.index("output", "speed_driver_motor")]
-    it = plant.index("output", "torque_meter_driven")
-    ct, dt_ = plant.C[it], plant.D[it, exc]
-    nx, ne = plant.A.shape[0], len(exc)
-    # controller outputs as linear maps of [x, z_speed, z_torque] and u_cl
-    # u_cl = [speed_ref, torque_ref, d_driver, d_driven, exc...]
-    nu = 4 + ne
-    Kx = np.zeros((2, nx + 2))
-    Ku = np.zeros((2, nu))
-    Kx[0, :nx], Kx[0, nx] = -kp * cw, ki
-    Ku[0, 0], Ku[0, 2] = kp * b, 1.0
-    Kx[1, :nx], Kx[1, nx + 1] = -kpt * ct, kit
-    Ku[1, 1], Ku[1, 3] = ff + kpt, 1.0
-    Ku[1, 4:] = -kpt * dt_
-    Bm = plant.B[:, [i_drv, i_brk]]
-    A = np.zeros((nx + 2, nx + 2))
-    A[:nx, :nx] = plant.A
-    A[:nx] += Bm @ Kx
-    A[nx, :nx] = -cw
-    A[nx + 1, :nx] = -ct
-    B = np.zeros((nx + 2, nu))
-    B[:nx] = Bm @ Ku
-    B[:nx, 4:] += plant.B[:, exc]
-    B[nx, 0] = 1.0
-    B[nx + 1, 1] = 1.0
-    B[nx + 1, 4:] = -dt_
-    Dm = plant.D[:, [i_drv, i_brk]]
-    C = np.vstack([np.hstack([plant.C, np.zeros((len(plant.outputs), 2))]) + Dm @ Kx, Kx])
+    gains = gains or {}
+    names = loop_names(motors)
+    ctrl = [m for m in motors if m.name in names]
+    i_m = [plant.index("input", m.input) for m in motors]
+    exc = [i for i in range(len(plant.inputs)) if i not in i_m]
+    nx, nc, nm, ne = plant.A.shape[0], len(ctrl), len(motors), len(exc)
+    nu = nc + nm + ne
+    # motor torques as linear maps of [x, z] and u_cl = [refs, disturbances, exc]
+    Kx, Ku = np.zeros((nm, nx + nc)), np.zeros((nm, nu))
+    Kx_z, Bz = np.zeros((nc, nx + nc)), np.zeros((nc, nu))
+    r = 0
+    for j, m in enumerate(motors):
+        Ku[j, nc + j] = 1.0
+        if m.name not in names:
+            continue
+        c = m.controller
+        kp, ki = gains.get(m.name, (c.kp, c.ki))
+        b, ff = (c.setpoint_weight, 0.0) if c.type == "speed" else (1.0, c.feedforward)
+        im = plant.index("output", c.sensor)
+        cm, dm = plant.C[im], plant.D[im, exc]
+        Kx[j, :nx], Kx[j, nx + r] = -kp * cm, ki
+        Ku[j, r] = ff + kp * b
+        Ku[j, nc + nm:] = -kp * dm
+        Kx_z[r, :nx] = -cm                 # ż = ref − measurement
+        Bz[r, r] = 1.0
+        Bz[r, nc + nm:] = -dm
+        r += 1
+    Bm = plant.B[:, i_m]
+    A = np.vstack([np.hstack([plant.A, np.zeros((nx, nc))]) + Bm @ Kx, Kx_z])
+    B = np.vstack([Bm @ Ku, Bz])
+    B[:nx, nc + nm:] += plant.B[:, exc]
+    Dm = plant.D[:, i_m]
+    C = np.vstack([np.hstack([plant.C, np.zeros((len(plant.outputs), nc))]) + Dm @ Kx, Kx])
     D = np.vstack([Dm @ Ku, Ku])
-    D[:len(plant.outputs), 4:] += plant.D[:, exc]
-    inputs = ["speed_ref", "torque_ref", "disturbance_driver", "disturbance_driven"] + [
-        plant.inputs[i] for i in exc]
-    outputs = plant.outputs + ["motor_torque_driver", "motor_torque_driven"]
-    states = plant.states + ["integral_speed_error", "integral_torque_error"]
+    D[:len(plant.outputs), nc + nm:] += plant.D[:, exc]
+    refs = [names[m.name][0] for m in ctrl]
+    integrators = [names[m.name][1] for m in ctrl]
+    inputs = refs + [f"disturbance_{m.name}" for m in motors] + [plant.inputs[i] for i in exc]
+    outputs = plant.outputs + [m.input for m in motors]
     units = dict(plant.units)
-    units.update(speed_ref="rad/s", torque_ref="N m", disturbance_driver="N m",
-                 disturbance_driven="N m", motor_torque_driver="N m",
-                 motor_torque_driven="N m", integral_speed_error="rad",
-                 integral_torque_error="N m s")
-    return NamedSS(A, B, C, D, states, inputs, outputs, units)
-
+    for m in ctrl:
+        speed = m.controller.type == "speed"
+        ref, integ = names[m.name]
+        units.update({ref: "rad/s" if speed else "N m", integ: "rad" if speed else "N m s"})
+    units.update({f"disturbance_{m.name}": "N m" for m in motors})
+    units.update({m.input: "N m" for m in motors})
+    return NamedSS(A, B, C, D, plant.states + integrators, inputs, outputs, units)

@@ -4,7 +4,8 @@ Identification from recorded motor torques to speeds sees the bench *inside* its
 loops. The recorded driver torque is the speed controller's output (plus ripple), so the
 system between it and the speeds is the bench with the speed loop opened at the motor
 torque and the braking-torque loop still closed; likewise for the driven torque. With
-:func:`gbpipe.model.bench_ss` that is:
+:func:`gbpipe.model.bench_ss` that is, for the paper's two motors (any drivetrain alike:
+the loops of the pairing's motors opened, the others closed):
 
 * ``motor_torque_driver`` alone: speed gains (0, 0); then the input ``disturbance_driver``
   *is* the driver motor torque;
@@ -28,26 +29,42 @@ import numpy as np
 import xarray as xr
 
 from gbpipe.lti import NamedSS, frf, modes
-from gbpipe.model.assembly import bench_ss
+from gbpipe.model.assembly import bench_chain
+from gbpipe.model.statespace import chain_plant, close_loops
 
-__all__ = ["TORQUES", "truth_model", "true_modes", "truth_dataset"]
+__all__ = ["TORQUES", "identification_inputs", "truth_model", "true_modes", "truth_dataset"]
 
-#: Motor torques usable as identification inputs -> closed-loop input that equals them when
-#: their own loop's gains are zero.
+#: The paper bench's motor torques usable as identification inputs -> closed-loop input
+#: that equals them when their own loop's gains are zero (:func:`identification_inputs`
+#: gives them for any drivetrain).
 TORQUES = {"motor_torque_driver": "disturbance_driver",
            "motor_torque_driven": "disturbance_driven"}
+
+
+def identification_inputs(cfg: Mapping[str, Any]) -> dict[str, str]:
+    """Motor torques usable as identification inputs -> their closed-loop disturbance.
+
+    ``motor_torque_<motor>`` -> ``disturbance_<motor>`` for every motor of the bench
+    (:func:`gbpipe.model.assembly.bench_chain`); :data:`TORQUES` for the paper's bench.
+    """
+    return {m.input: f"disturbance_{m.name}" for m in bench_chain(cfg).motors}
 
 
 def truth_model(cfg: Mapping[str, Any], inputs: Sequence[str],
                 outputs: Sequence[str]) -> NamedSS:
     """True continuous-time model from the pairing's inputs to its outputs.
 
+    The loops of the input motors are opened (gains zero: their ``disturbance_<motor>``
+    is then their torque), the others stay closed; with every motor an input, the
+    open-loop plant.
+
     Parameters
     ----------
     cfg : mapping
-        Validated configuration (``gearbox``, ``bench``).
+        Validated configuration (``gearbox``, ``bench``, or ``drivetrain``).
     inputs : sequence of str
-        One or both of ``motor_torque_driver``, ``motor_torque_driven`` [N·m].
+        Motor torques ``motor_torque_<motor>`` [N·m] (the paper: one or both of
+        ``motor_torque_driver``, ``motor_torque_driven``).
     outputs : sequence of str
         Bench outputs, e.g. ``speed_gb1_hss``, ``speed_gb2_hss`` [rad/s].
 
@@ -62,16 +79,19 @@ def truth_model(cfg: Mapping[str, Any], inputs: Sequence[str],
         An input that is not a motor torque, a repeated input, or an unknown output.
     """
     inputs, outputs = list(inputs), list(outputs)
-    bad = [u for u in inputs if u not in TORQUES]
+    chain = bench_chain(cfg)
+    torques = {m.input: m for m in chain.motors}
+    bad = [u for u in inputs if u not in torques]
     if bad or not inputs or len(set(inputs)) != len(inputs):
-        raise ValueError(f"identify.pairings inputs {inputs} must be one or both of "
-                         f"{', '.join(TORQUES)} (each once)")
-    if len(inputs) == 2:
-        ss = bench_ss(cfg, closed=False).select(inputs, outputs)
-    elif inputs[0] == "motor_torque_driver":
-        ss = bench_ss(cfg, speed_gains=(0.0, 0.0)).select(["disturbance_driver"], outputs)
+        raise ValueError(f"identify.pairings inputs {inputs} must be some of "
+                         f"{', '.join(torques)} (each once)")
+    plant = chain_plant(chain)
+    if len(inputs) == len(torques):
+        ss = plant.select(inputs, outputs)
     else:
-        ss = bench_ss(cfg, torque_gains=(0.0, 0.0)).select(["disturbance_driven"], outputs)
+        opened = {torques[u].name: (0.0, 0.0) for u in inputs}
+        ss = close_loops(plant, chain.motors, opened).select(
+            [f"disturbance_{torques[u].name}" for u in inputs], outputs)
     ss.units.update({u: "N m" for u in inputs})
     ss.inputs = inputs
     return ss
