@@ -14,9 +14,12 @@ import numpy as np
 import opentorsion as ot
 import pytest
 
+from gbpipe import model
+from gbpipe.config import merge, validate
 from gbpipe.errors import ConfigError
 from gbpipe.lti import frf
-from gbpipe.model.mechanics import Body, Mechanism, Spring
+from gbpipe.model.chain import build_chain
+from gbpipe.model.keypath import get_value, with_values
 from gbpipe.model.opentorsion_io import (
     expand,
     from_assembly,
@@ -66,28 +69,8 @@ def shaft_line(seed: int) -> ot.Assembly:
 
 
 def built(description: dict):
-    # TEMPORARY until chain's builder lands
-    disks = description["disks"]
-    parent = {g["child"]: (g["parent"], g["ratio"]) for g in description["gears"]}
-    coords = [n for n in disks if n not in parent]
-    T = np.zeros((len(disks), len(coords)))
-    names = list(disks)
-
-    def row(n):
-        if n in parent:
-            p, r = parent[n]
-            return r * row(p)
-        e = np.zeros(len(coords))
-        e[coords.index(n)] = 1.0
-        return e
-    for i, n in enumerate(names):
-        T[i] = row(n)
-    springs = [Spring(s["name"], {s["between"][0]: 1.0, s["between"][1]: -1.0},
-                      s["stiffness"], s["damping"], inertia=s.get("inertia", 0.0))
-               for s in description["shafts"]]
-    springs += [Spring(m["name"], {m["node"]: 1.0}, m["stiffness"], m["damping"])
-                for m in description["mounts"]]
-    return Mechanism([Body(n, disks[n]["inertia"]) for n in names], springs, coords, T)
+    """The mechanism of an imported description, through the one chain builder."""
+    return build_chain(description).mechanism
 
 
 def ot_frf(asm: ot.Assembly, f_hz: np.ndarray, node_in: int, node_out: int,
@@ -160,12 +143,14 @@ def test_round_trip():
 
 
 def test_shaft_inertia_is_consistent_mass_not_lumped():
-    # two disks on one heavy shaft: the closed form of a uniform shaft with end disks
-    # ω² = k(J1+J2+J/... ) checked against openTorsion's consistent matrix by hand
+    # two disks on one heavy shaft: openTorsion's consistent matrix assembled by hand
+    # (a lumped J/2 at each end would give another frequency)
     k, j1, j2, js = 1.0e5, 0.3, 0.5, 0.24
     asm = ot.Assembly([ot.Shaft(0, 1, k=k, I=js / 6)], disk_elements=[ot.Disk(0, j1),
                                                                        ot.Disk(1, j2)])
-    mech = built(from_assembly(asm))
+    desc = from_assembly(asm)
+    desc["motors"] = [{"name": "drive", "node": "n0"}]    # a free chain needs a driver
+    mech = built(desc)
     m = np.array([[j1 + js / 3, js / 6], [js / 6, j2 + js / 3]])
     kk = k * np.array([[1.0, -1.0], [-1.0, 1.0]])
     w2 = np.linalg.eigvals(np.linalg.solve(m, kk)).real.max()
@@ -204,6 +189,34 @@ def test_config_hook(tmp_path):
     # expanded once: a second pass keeps a fitted value
     out["shafts"][1]["stiffness"] = 7.0e3
     assert expand(out, tmp_path)["shafts"][1]["stiffness"] == 7.0e3
+
+
+def test_config_section_from_a_file(cfg, tmp_path, monkeypatch):
+    path = tmp_path / "asm.py"
+    path.write_text(ASSEMBLY_FILE)
+    monkeypatch.chdir(tmp_path)           # a relative file is read from the working dir
+    section = {"opentorsion": "asm.py:bench",
+               "motors": [{"name": "load", "node": "n3"}],
+               "sensors": [{"name": "speed_load", "speed": "n3"},
+                           {"name": "torque_out", "torque": "shaft1"}]}
+    custom = validate(merge(cfg, {"drivetrain": section, "fit": {"records": []}}))
+    dt = custom["drivetrain"]
+    assert dt["opentorsion"] == {"source": "asm.py:bench",
+                                 "sha256": hashlib.sha256(path.read_bytes()).hexdigest()}
+    # the plant of the built chain against the file's assembly, by numpy: the speed of
+    # node 3 per torque on it (nodes 2 and 3 lie beyond one mesh: the same direction)
+    asm = to_assembly(dt)
+    ss = model.bench_ss(custom, closed=False)
+    f = np.array([3.0, 30.0, 300.0])
+    t = asm.T(asm.E())
+    want = [1j * w * (t @ np.linalg.solve(-w**2 * asm.M + 1j * w * asm.C + asm.K, t[3]))[3]
+            for w in 2 * np.pi * f]
+    got = frf(ss, f)[:, ss.outputs.index("speed_load"), 0]
+    np.testing.assert_allclose(got, want, rtol=1e-9)
+    # a fit's key path on the expanded section survives validation (nothing read again)
+    path.write_text("raise RuntimeError('read twice')")
+    fitted = validate(with_values(custom, {"drivetrain.shafts[1].stiffness": 7.5e3}))
+    assert get_value(fitted, "drivetrain.shafts[1].stiffness") == 7.5e3
 
 
 @pytest.mark.parametrize("spec, words", [
