@@ -158,6 +158,19 @@ def test_shaft_inertia_is_consistent_mass_not_lumped():
                                rtol=1e-12)
 
 
+def test_soft_mount_mode_is_not_taken_for_rigid():
+    # a motor on a soft mount behind a stiff shaft: its mode 1e-5 of the shaft's in
+    # frequency; the closed form (product of the two ω² = det K / det M) keeps it
+    j1, j2, k_mount, k_shaft = 10.0, 1.0e-3, 10.0, 1.0e7
+    asm = ot.Assembly([ot.Shaft(0, 1, k=k_shaft)],
+                      disk_elements=[ot.Disk(0, j1, k=k_mount), ot.Disk(1, j2)])
+    f = built(from_assembly(asm)).undamped_frequencies()
+    trace = (k_mount + k_shaft) / j1 + k_shaft / j2
+    high = 0.5 * (trace + np.sqrt(trace**2 - 4 * k_mount * k_shaft / (j1 * j2)))
+    low = k_mount * k_shaft / (j1 * j2) / high
+    np.testing.assert_allclose(f, np.sqrt([low, high]) / (2 * np.pi), rtol=1e-6)
+
+
 ASSEMBLY_FILE = '''
 import opentorsion as ot
 

@@ -204,9 +204,12 @@ class Mechanism:
     def undamped_frequencies(self) -> np.ndarray:
         """Undamped natural frequencies [Hz] from ``K v = ω² M v`` (rigid modes dropped)."""
         w2 = eigh(self.stiffness_matrix, self.mass_matrix, eigvals_only=True)
-        scale = max(abs(w2).max(), 1.0)
-        w2 = w2[w2 > 1e-9 * scale]
-        return np.sqrt(w2) / (2 * np.pi)
+        # the rigid modes are the null space of the springs' twist maps (entries are gear
+        # ratios, not stiffnesses): counted there, a soft mount's mode decades below the
+        # stiffest one is never taken for rigid
+        twist = np.array(list(self.twist_maps().values())).reshape(-1, len(self.coords))
+        n_rigid = len(self.coords) - np.linalg.matrix_rank(twist)
+        return np.sqrt(np.clip(w2[n_rigid:], 0.0, None)) / (2 * np.pi)
 
 
 def _incidence(springs: Sequence[Spring], idx: Mapping[str, int], n_bodies: int

@@ -151,7 +151,6 @@ def from_assembly(assembly: Any, field: str = FIELD) -> dict[str, Any]:
     nodes = sorted({e.node for e in (*disks, *gears)}
                    | {n for s in assembly.shaft_elements for n in (s.nl, s.nr)})
     inertia = dict.fromkeys(nodes, 0.0)
-    mounts = []
     for d in disks:
         inertia[d.node] += float(d.I)
         if d.c and not d.k:
@@ -159,9 +158,10 @@ def from_assembly(assembly: Any, field: str = FIELD) -> dict[str, Any]:
                               f"(c = {d.c} N·m·s/rad) without a spring (k = 0): a "
                               "drivetrain mount needs a stiffness > 0; give the Disk a "
                               "ground stiffness k or drop its c")
-        if d.k:
-            mounts.append({"name": f"mount{len(mounts)}", "node": _node(d.node),
-                           "stiffness": float(d.k), "damping": float(d.c)})
+    # in node order (stable): the order to_assembly writes them back in
+    grounded = sorted((d for d in disks if d.k), key=lambda d: d.node)
+    mounts = [{"name": f"mount{i}", "node": _node(d.node), "stiffness": float(d.k),
+               "damping": float(d.c)} for i, d in enumerate(grounded)]
     for g in gears:
         inertia[g.node] += float(g.I)
     shafts = []
@@ -183,8 +183,9 @@ def from_assembly(assembly: Any, field: str = FIELD) -> dict[str, Any]:
 def to_assembly(description: Mapping[str, Any], field: str = "drivetrain") -> Any:
     """An openTorsion assembly of a ``drivetrain:`` description.
 
-    Nodes are numbered in the order of ``disks``. A mount's ``k`` and ``c`` go on a disk
-    of its node; a gear node's inertia on its ``Gear``; a mesh's radii are 1 at the root
+    Nodes are numbered in the order of ``disks``. Each mount's ``k`` and ``c`` go on a
+    disk of its node (mounts come back in node order); a gear node's inertia on its
+    ``Gear``; a mesh's radii are 1 at the root
     of a gear tree and ``R_child = R_parent/ratio`` below (openTorsion reverses the
     child, the description does not: :func:`node_directions` of the result).
 
@@ -221,11 +222,9 @@ def to_assembly(description: Mapping[str, Any], field: str = "drivetrain") -> An
     names = list(description["disks"])
     number = {n: i for i, n in enumerate(names)}
     inertia = {n: float(description["disks"][n]["inertia"]) for n in names}
-    ground: dict[str, list[float]] = {}
+    mounts: dict[str, list[tuple[float, float]]] = {n: [] for n in names}
     for m in description.get("mounts", []):
-        kc = ground.setdefault(m["node"], [0.0, 0.0])
-        kc[0] += float(m["stiffness"])
-        kc[1] += float(m.get("damping", 0.0))
+        mounts[m["node"]].append((float(m["stiffness"]), float(m.get("damping", 0.0))))
     parent_of = {g["child"]: g for g in description.get("gears", [])}
     geared = set(parent_of) | {g["parent"] for g in description.get("gears", [])}
     elements: dict[str, Any] = {}
@@ -245,9 +244,12 @@ def to_assembly(description: Mapping[str, Any], field: str = "drivetrain") -> An
         return elements[name]
 
     gears = [_gear(n) for n in names if n in geared]
-    disks = [ot.Disk(number[n], 0.0 if n in geared else inertia[n],
-                     c=ground.get(n, (0.0, 0.0))[1], k=ground.get(n, (0.0, 0.0))[0])
-             for n in names if n not in geared or n in ground]
+    disks = []
+    for n in names:
+        # a node's inertia on its first disk (a gear node's on its Gear), one disk per mount
+        ground = mounts[n] or ([] if n in geared else [(0.0, 0.0)])
+        disks += [ot.Disk(number[n], 0.0 if n in geared or i else inertia[n], c=c, k=k)
+                  for i, (k, c) in enumerate(ground)]
     shafts = [ot.Shaft(number[s["between"][0]], number[s["between"][1]],
                        k=float(s["stiffness"]), I=float(s.get("inertia", 0.0)) / 6.0,
                        c=float(s.get("damping", 0.0)))
