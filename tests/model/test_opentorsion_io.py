@@ -142,6 +142,37 @@ def test_round_trip():
                     assert a[key] == value
 
 
+def test_export_of_a_written_description():
+    # teeth and damping ratios, as a person writes them: openTorsion's own modal
+    # analysis of the export has the poles of the chain builder's mechanism
+    desc = {
+        "disks": {"motor": {"inertia": 0.08}, "hub": {"inertia": 0.01},
+                  "flywheel": {"inertia": 1.2}, "wheel": {"inertia": 0.3},
+                  "pinion": {"inertia": 0.02}, "load": {"inertia": 0.05}},
+        "shafts": [
+            {"name": "s1", "between": ["motor", "hub"], "stiffness": 1.2e4,
+             "damping_ratio": 0.02},
+            {"name": "s2", "between": ["hub", "flywheel"], "stiffness": 8.0e3, "damping": 0.5,
+             "inertia": 0.006},
+            {"name": "s3", "between": ["flywheel", "wheel"], "stiffness": 2.0e4,
+             "damping_ratio": 0.03},
+            {"name": "s4", "between": ["pinion", "load"], "stiffness": 3.0e3,
+             "damping_ratio": 0.02}],
+        "mounts": [{"name": "arm", "node": "motor", "stiffness": 300.0, "damping_ratio": 0.3}],
+        "gears": [{"name": "g1", "parent": "wheel", "child": "pinion", "teeth": [96, 29]}],
+    }
+    asm = to_assembly(desc)
+    wn, wd, zeta = (np.asarray(a) for a in asm.modal_analysis())
+    ref = np.sort_complex((-zeta * wn + 1j * wd)[wd > 0])
+    sys = mechanism_ss(built(desc), {}, {}, {}, {})
+    poles = np.linalg.eigvals(sys.A)
+    np.testing.assert_allclose(np.sort_complex(poles[poles.imag > 0]), ref, rtol=1e-9)
+    assert from_assembly(asm)["gears"][0]["ratio"] == pytest.approx(96 / 29, rel=1e-15)
+    with pytest.raises(ConfigError) as err:
+        to_assembly({**desc, "gears": [{**desc["gears"][0], "housing": "hub"}]})
+    assert err.value.field == "drivetrain.gears[0].housing"
+
+
 def test_shaft_inertia_is_consistent_mass_not_lumped():
     # two disks on one heavy shaft: openTorsion's consistent matrix assembled by hand
     # (a lumped J/2 at each end would give another frequency)

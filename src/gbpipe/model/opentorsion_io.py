@@ -38,6 +38,7 @@ from pathlib import Path
 from typing import Any
 
 from gbpipe.errors import ConfigError
+from gbpipe.model.chain import build_chain
 
 __all__ = ["node_directions", "from_assembly", "to_assembly", "load_assembly", "expand"]
 
@@ -185,15 +186,17 @@ def to_assembly(description: Mapping[str, Any], field: str = "drivetrain") -> An
 
     Nodes are numbered in the order of ``disks``. Each mount's ``k`` and ``c`` go on a
     disk of its node (mounts come back in node order); a gear node's inertia on its
-    ``Gear``; a mesh's radii are 1 at the root
-    of a gear tree and ``R_child = R_parent/ratio`` below (openTorsion reverses the
-    child, the description does not: :func:`node_directions` of the result).
+    ``Gear``; a mesh's radii are 1 at the root of a gear tree and ``R_child =
+    R_parent/ratio`` below (openTorsion reverses the child, the description does not:
+    :func:`node_directions` of the result). A ``damping_ratio`` is written as the
+    absolute damping the chain builder derives from it (docs/drivetrain.md).
 
     Parameters
     ----------
     description : mapping
-        ``disks``, ``shafts`` (with absolute ``damping``), ``mounts``, ``gears`` (a
-        ``ratio`` or ``teeth``), as :func:`from_assembly` gives them.
+        ``disks``, ``shafts``, ``mounts``, ``gears`` (a ``ratio`` or ``teeth``) as in
+        docs/drivetrain.md; motors, sensors and excitation are signals, not elements,
+        and are not written.
     field : str
         Key path named in errors.
 
@@ -204,27 +207,27 @@ def to_assembly(description: Mapping[str, Any], field: str = "drivetrain") -> An
     Raises
     ------
     ConfigError
-        openTorsion is not installed; an entry openTorsion cannot hold (a planetary
-        stage, a gear in a rotating housing) or given by ``damping_ratio``.
+        openTorsion is not installed; an entry openTorsion 0.3 cannot hold (a planetary
+        stage, a gear in a rotating housing); the chain builder's refusals.
     """
     ot = _opentorsion(field)
     if description.get("planetary"):
         raise ConfigError(f"{field}.planetary", "openTorsion 0.3 has no planetary stage")
-    for kind in ("shafts", "mounts"):
-        for i, s in enumerate(description.get(kind, [])):
-            if "damping_ratio" in s:
-                raise ConfigError(f"{field}.{kind}[{i}].damping_ratio", "openTorsion "
-                                  "takes an absolute damping: give damping [N·m·s/rad]")
     for i, g in enumerate(description.get("gears", [])):
         if g.get("housing") is not None:
             raise ConfigError(f"{field}.gears[{i}].housing", "openTorsion 0.3 has no gear "
                               "in a rotating housing (its meshes have fixed bearings)")
+    springs = [*description.get("shafts", []), *description.get("mounts", [])]
+    damping = {e["name"]: float(e.get("damping", 0.0)) for e in springs}
+    if any("damping_ratio" in e for e in springs):
+        # the one rule that turns a ratio into N·m·s/rad: the chain builder's
+        damping = {s.name: s.damping for s in build_chain(description, field).mechanism.springs}
     names = list(description["disks"])
     number = {n: i for i, n in enumerate(names)}
     inertia = {n: float(description["disks"][n]["inertia"]) for n in names}
     mounts: dict[str, list[tuple[float, float]]] = {n: [] for n in names}
     for m in description.get("mounts", []):
-        mounts[m["node"]].append((float(m["stiffness"]), float(m.get("damping", 0.0))))
+        mounts[m["node"]].append((float(m["stiffness"]), damping[m["name"]]))
     parent_of = {g["child"]: g for g in description.get("gears", [])}
     geared = set(parent_of) | {g["parent"] for g in description.get("gears", [])}
     elements: dict[str, Any] = {}
@@ -252,7 +255,7 @@ def to_assembly(description: Mapping[str, Any], field: str = "drivetrain") -> An
                   for i, (k, c) in enumerate(ground)]
     shafts = [ot.Shaft(number[s["between"][0]], number[s["between"][1]],
                        k=float(s["stiffness"]), I=float(s.get("inertia", 0.0)) / 6.0,
-                       c=float(s.get("damping", 0.0)))
+                       c=damping[s["name"]])
               for s in description["shafts"]]
     return ot.Assembly(shafts, disk_elements=disks, gear_elements=gears or None)
 
