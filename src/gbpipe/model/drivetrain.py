@@ -120,8 +120,12 @@ def paper_drivetrain(cfg: Mapping[str, Any]) -> dict[str, Any]:
         (sign −1: braking; torque loop on ``torque_meter_driven``), both gearboxes, the
         couplings and LSS shaft, and today's sensors and excitation inputs.
     """
+    return _paper(cfg, parse_stages(cfg["gearbox"]["stages"]))
+
+
+def _paper(cfg: Mapping[str, Any], stages: list[Stage]) -> dict[str, Any]:
+    """:func:`paper_drivetrain` with the stages parsed (once per model build)."""
     gb, bench = cfg["gearbox"], cfg["bench"]
-    stages = parse_stages(gb["stages"])
     g2, g1 = _gearbox(gb, stages, "gb2."), _gearbox(gb, stages, "gb1.")
     lss = f"{stages[0].input_member}1"
     mi, cp, ls = bench["motor_inertia"], bench["coupling"], bench["lss_shaft"]
@@ -201,7 +205,7 @@ def paper_chain(cfg: Mapping[str, Any], check: bool = False) -> Chain:
     ``check``: as in :func:`gearbox_chain`.
     """
     stages = parse_stages(cfg["gearbox"]["stages"])
-    return _renamed(build_chain(paper_drivetrain(cfg), "gearbox", check=check),
+    return _renamed(build_chain(_paper(cfg, stages), "gearbox", check=check),
                     _coordinate_names(stages, ["gb2.", "gb1."]))
 
 
