@@ -214,6 +214,10 @@ def bench():
 
 def not_an_assembly():
     return 3
+
+
+def broken():
+    return ot.Assembly([ot.Shaft(0, 1)])
 '''
 
 
@@ -268,6 +272,7 @@ def test_config_section_from_a_file(cfg, tmp_path, monkeypatch):
     ("asm.py:nothing", "no function 'nothing'"),
     ("asm.py:not_an_assembly", "not an opentorsion.Assembly"),
     ("asm.py", "path/to/file.py:function"),
+    ("asm.py:broken", r"broken\(\) failed: TypeError"),
 ])
 def test_config_hook_errors(tmp_path, spec, words):
     (tmp_path / "asm.py").write_text(ASSEMBLY_FILE)

@@ -261,7 +261,7 @@ def to_assembly(description: Mapping[str, Any], field: str = "drivetrain") -> An
 
 
 def load_assembly(spec: str, base: str | Path = ".", field: str = FIELD
-                  ) -> tuple[Any, str, Path]:
+                  ) -> tuple[Any, str]:
     """Run ``path.py:function`` and return the assembly it builds.
 
     Parameters
@@ -275,14 +275,16 @@ def load_assembly(spec: str, base: str | Path = ".", field: str = FIELD
 
     Returns
     -------
-    opentorsion.Assembly, str, Path
-        The assembly, the SHA-256 of the file (hex) and the file's path.
+    opentorsion.Assembly, str
+        The assembly and the SHA-256 of the file (hex; files it imports are not
+        hashed).
 
     Raises
     ------
     ConfigError
-        Not ``file:function``; the file or the function missing; a result that is not
-        an ``opentorsion.Assembly``; openTorsion not installed.
+        Not ``file:function``; the file or the function missing; the file or the
+        function failing (the error quoted); a result that is not an
+        ``opentorsion.Assembly``; openTorsion not installed.
     """
     path_s, sep, func = str(spec).rpartition(":")
     if not sep or not path_s or not func.isidentifier():
@@ -296,17 +298,25 @@ def load_assembly(spec: str, base: str | Path = ".", field: str = FIELD
     data = path.read_bytes()
     mod_spec = importlib.util.spec_from_file_location(f"_gbpipe_ot_{path.stem}", path)
     module = importlib.util.module_from_spec(mod_spec)
-    mod_spec.loader.exec_module(module)
+    try:
+        mod_spec.loader.exec_module(module)
+    except Exception as exc:
+        raise ConfigError(field, f"running {path} failed: {type(exc).__name__}: {exc}"
+                          ) from exc
     build = getattr(module, func, None)
     if not callable(build):
         have = sorted(n for n, v in vars(module).items()
                       if callable(v) and not n.startswith("_"))
         raise ConfigError(field, f"{path} has no function {func!r}; it has {have}")
-    assembly = build()
+    try:
+        assembly = build()
+    except Exception as exc:
+        raise ConfigError(field, f"{path}:{func}() failed: {type(exc).__name__}: {exc}"
+                          ) from exc
     if not isinstance(assembly, ot.Assembly):
         raise ConfigError(field, f"{path}:{func}() returned {type(assembly).__name__}, "
                           "not an opentorsion.Assembly")
-    return assembly, hashlib.sha256(data).hexdigest(), path
+    return assembly, hashlib.sha256(data).hexdigest()
 
 
 def expand(drivetrain: Mapping[str, Any], base: str | Path = ".",
@@ -331,7 +341,7 @@ def expand(drivetrain: Mapping[str, Any], base: str | Path = ".",
     Returns
     -------
     dict
-        The expanded section (a copy); the section itself when it names no file.
+        The expanded section; a shallow copy of the section when it names no file.
 
     Raises
     ------
@@ -346,7 +356,7 @@ def expand(drivetrain: Mapping[str, Any], base: str | Path = ".",
     if both:
         raise ConfigError(f"{field}.{both[0]}", "given beside drivetrain.opentorsion, whose "
                           "assembly defines it: remove one of them")
-    assembly, sha, _ = load_assembly(spec, base, f"{field}.opentorsion")
+    assembly, sha = load_assembly(spec, base, f"{field}.opentorsion")
     out = {k: v for k, v in drivetrain.items() if k != "opentorsion"}
     out.update(from_assembly(assembly, f"{field}.opentorsion"))
     out["opentorsion"] = {"source": spec, "sha256": sha}
