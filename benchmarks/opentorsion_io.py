@@ -77,8 +77,8 @@ def compare(seed: int) -> dict[str, float]:
     desc = from_assembly(asm)
     mech = build_chain(desc).mechanism
     cpu = time.process_time() - t0
-    w0 = np.abs(asm.modal_analysis(C=np.zeros_like(asm.M))[0])
-    w0 = np.sort(w0[w0 > 1e-6 * w0.max()])[::2] / (2 * np.pi)    # one per ±jω pair
+    w0, wd0, _ = (np.asarray(a) for a in asm.modal_analysis(C=np.zeros_like(asm.M)))
+    w0 = np.sort(w0[wd0 > 1e-6 * w0.max()]) / (2 * np.pi)     # one per ±jω pair
     f_ud = mech.undamped_frequencies()
     wn, wd, zeta = (np.asarray(a) for a in asm.modal_analysis())
     up = (wd > 1e-6 * wn.max())

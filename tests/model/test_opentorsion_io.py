@@ -9,6 +9,7 @@ The FRFs are computed here with numpy from openTorsion's ``M``, ``C``, ``K`` and
 from __future__ import annotations
 
 import hashlib
+import sys
 
 import numpy as np
 import opentorsion as ot
@@ -95,8 +96,8 @@ def test_modes_and_frf_match_opentorsion(seed):
     mech = built(desc)
 
     # undamped: openTorsion's modal_analysis without damping, |λ| [rad/s] -> Hz
-    wn0 = np.unique(np.round(np.abs(asm.modal_analysis(C=np.zeros_like(asm.M))[0]), 9))
-    np.testing.assert_allclose(mech.undamped_frequencies(), np.sort(wn0) / (2 * np.pi),
+    wn0, wd0, _ = (np.asarray(a) for a in asm.modal_analysis(C=np.zeros_like(asm.M)))
+    np.testing.assert_allclose(mech.undamped_frequencies(), np.sort(wn0[wd0 > 0]) / (2 * np.pi),
                                rtol=1e-6)
 
     # damped: the poles of openTorsion's own state matrix
@@ -289,7 +290,6 @@ def test_config_hook_refuses_both(tmp_path):
 
 
 def test_missing_opentorsion_names_the_extra(tmp_path, monkeypatch):
-    import sys
     (tmp_path / "asm.py").write_text(ASSEMBLY_FILE)
     monkeypatch.setitem(sys.modules, "opentorsion", None)   # import fails
     with pytest.raises(ConfigError, match=r"pip install gbpipe\[opentorsion\]"):
