@@ -136,8 +136,8 @@ class Mechanism:
         for s in self.springs:
             if s.inertia:
                 # consistent mass J/6·[[2, 1], [1, 2]] of the ends = J(θ̄θ̄ᵀ + ΔθΔθᵀ/12)
-                g = self.incidence_vector(s) @ self.T
-                mean = 0.5 * np.abs(self.incidence_vector(s)) @ self.T
+                e = self.incidence_vector(s)
+                g, mean = e @ self.T, 0.5 * np.abs(e) @ self.T
                 m += s.inertia * (np.outer(mean, mean) + np.outer(g, g) / 12.0)
         return m
 
