@@ -14,12 +14,16 @@ is ≈ N/2 and a fit in the right basin reaches it or lower. Start: the nominal 
 
 Per set it prints cost at fit / cost at truth, each parameter's error [%] and status, the
 fit's goodness verdict, the global stages run and the CPU time; then the summary of the
-issue's criterion: every set either within 5 % of the cost at the truth with every
-identified parameter within 2 %, or reported ``poor``; and the share of ``identified``
-95 % intervals that exclude the truth.
+issue's criterion: every set either within 5 % of the cost at the truth (unless a
+parameter is held at its prior) with every identified parameter within 2 % (5 % from
+modes), or reported ``poor``; and the share of ``identified`` 95 % intervals that exclude
+the truth.
+
+With ``--modes`` the data are each set's open-loop modes below 350 Hz instead (0.5 %
+frequency and 10 % damping spread, drawn around the truth; ``gbpipe.model.fit_modes``).
 
 Usage: ``OMP_NUM_THREADS=1 python benchmarks/fit_global.py [--sets 12] [--sigma 0.02]
-[--search auto|starts|evolution]``.
+[--search auto|starts|evolution] [--modes]``.
 """
 
 from __future__ import annotations
@@ -32,6 +36,7 @@ import numpy as np
 
 from gbpipe.config import load
 from gbpipe.model.fit import fit_parameters
+from gbpipe.model.fit_modes import ModalResiduals, modal_data_of
 from gbpipe.model.fit_residuals import FrfResiduals
 from gbpipe.model.frf import Pairing, pairing_frf
 from gbpipe.model.frf_data import FrfData
@@ -75,19 +80,27 @@ def main() -> None:
     ap.add_argument("--sets", type=int, default=12, help="random sets beside the user's")
     ap.add_argument("--sigma", type=float, default=0.02)
     ap.add_argument("--search", default="auto", choices=["auto", "starts", "evolution"])
+    ap.add_argument("--modes", action="store_true",
+                    help="fit each set's open-loop modes below 350 Hz instead (0.5 %% "
+                         "frequency, 10 %% damping spread)")
     args = ap.parse_args()
     cfg = load(CONFIG)
     fr = cfg["identify"]["frf"]
     f = np.geomspace(fr["f_min"], fr["f_max"], fr["points"])
     pairings = [Pairing.from_config(p) for p in cfg["identify"]["pairings"]]
     ok_sets, excluded, n_ident, cpus = 0, 0, 0, []
+    tolerance = 5.0 if args.modes else 2.0      # % (the issue's criteria)
     for k, factors in enumerate(perturbation_sets(args.sets)):
         free = list(factors)
         truth = with_values(cfg, {p: get_value(cfg, p) * x for p, x in factors.items()})
-        data = clean_data(truth, pairings, f, args.sigma, np.random.default_rng(k))
         theta_true = np.log(list(factors.values()))
-        r = FrfResiduals(FreeParameters.from_config(cfg, free), data, False).residual(
-            theta_true)
+        fp = FreeParameters.from_config(cfg, free)
+        if args.modes:
+            data = modal_data_of(truth, None, 350.0, 0.005, 0.1, np.random.default_rng(k))
+            r = ModalResiduals(fp, data).residual(theta_true)
+        else:
+            data = clean_data(truth, pairings, f, args.sigma, np.random.default_rng(k))
+            r = FrfResiduals(fp, data, False).residual(theta_true)
         cost_truth = 0.5 * float(r @ r)
         t = time.process_time()
         res = fit_parameters(cfg, data, free, seed=k, search=args.search)
@@ -99,7 +112,10 @@ def main() -> None:
         excluded += int(np.sum(ident & ~inside))
         n_ident += int(ident.sum())
         ratio = res.cost / cost_truth
-        met = (ratio <= 1.05 and np.all(np.abs(err[ident]) < 2.0)) or \
+        # a parameter held at its prior (unidentifiable) leaves the cost above the truth's
+        # by design: then only the identified parameters are judged
+        held = "unidentifiable" in res.status
+        met = ((ratio <= 1.05 or held) and np.all(np.abs(err[ident]) < tolerance)) or \
             res.goodness.status == "poor"
         ok_sets += met
         name = "user" if k == 0 else f"random {k}"
@@ -113,8 +129,9 @@ def main() -> None:
         for c in res.combinations:
             print(f"    cannot separate: {c}")
     n = args.sets + 1
-    print(f"\n{ok_sets} of {n} sets meet the criterion (cost within 5 % of the truth's and "
-          f"identified parameters within 2 %, or reported poor); identified 95 % intervals "
+    print(f"\n{ok_sets} of {n} sets meet the criterion (cost within 5 % of the truth's, "
+          f"unless a parameter is held at its prior, and identified parameters within "
+          f"{tolerance:g} %, or reported poor); identified 95 % intervals "
           f"excluding the truth: {excluded} of {n_ident}; CPU per fit median "
           f"{np.median(cpus):.1f} s, max {np.max(cpus):.1f} s")
 
