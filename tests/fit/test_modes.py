@@ -69,6 +69,9 @@ def test_matching_uses_each_model_mode_once_and_bad_tables_are_named(cfg, tmp_pa
     bad.write_text("frequency_hz,damping,frequency_spread_hz,damping_spread\n10,0.01,0,0.1\n")
     with pytest.raises(DataError, match="spread"):
         read_modes_table(bad)
+    bad.write_text("frequency_hz,damping,frequency_spread_hz,damping_spread\n10,x,0.1,0.1\n")
+    with pytest.raises(DataError, match="'damping' row 1"):
+        read_modes_table(bad)
     good = modal_data_of(cfg, None, 100.0, 0.01, 0.1, np.random.default_rng(1))
     with pytest.raises(ConfigError, match="fit.delay"):
         fit_parameters(cfg, good, FREE[:2], delay=True)

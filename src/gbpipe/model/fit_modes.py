@@ -115,8 +115,15 @@ def read_modes_table(path: str | os.PathLike, pairing: str | None = None,
             table = table[table[col].astype(str) == value]
     if table.empty:
         raise DataError(str(path), f"no mode left (pairing {pairing}, method {method})")
-    return ModalData(*(table[c].to_numpy(float) for c in MODE_COLUMNS), system=system,
-                     band=band, source=str(path))
+    columns = []
+    for col in MODE_COLUMNS:
+        values = pd.to_numeric(table[col], errors="coerce").to_numpy(float)
+        bad = np.isnan(values) & table[col].notna().to_numpy()
+        if bad.any():
+            raise DataError(str(path), f"column '{col}' row {int(np.argmax(bad)) + 1}: "
+                            f"'{table[col].iloc[int(np.argmax(bad))]}' is not a number")
+        columns.append(values)
+    return ModalData(*columns, system=system, band=band, source=str(path))
 
 
 def model_modes(cfg: dict, system: Pairing | None) -> tuple[np.ndarray, np.ndarray]:
