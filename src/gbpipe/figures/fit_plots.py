@@ -82,7 +82,8 @@ def fig_fit(ds: xr.Dataset, stem: str | os.PathLike, caption: str | os.PathLike,
     nrows = -(-n_panels // ncols)
     mosaic = [[f"p{r * ncols + c}" for c in range(ncols)] for r in range(nrows)]
     mosaic.append(["table"] * ncols)
-    fig = plt.figure(figsize=(3.3 * ncols + 0.6, 2.5 * nrows + 1.0 + 0.22 * ds.sizes[
+    # at least 8 in wide: the parameter table and the two-line title need it
+    fig = plt.figure(figsize=(max(3.3 * ncols + 0.6, 8.0), 2.5 * nrows + 1.0 + 0.22 * ds.sizes[
         "parameter"]), layout="constrained")
     ax_of = fig.subplot_mosaic(mosaic, height_ratios=[1.0] * nrows + [
         0.3 + 0.1 * ds.sizes["parameter"]])
