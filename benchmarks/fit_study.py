@@ -72,7 +72,8 @@ def main() -> None:
         path = run_seed(root / f"seed{k}", seed, args.version)
         ds = io.read(path)
         truth = np.array([get_value(base, str(p)) for p in ds.parameter.values])
-        ident = ds.status.values == "identified"
+        # determined by the data; "poor" when the fit failed its chi-square test
+        ident = np.isin(ds.status.values, ["identified", "poor"])
         err = ds.estimate.values / truth - 1
         cov = (ds.interval_lower.values <= truth) & (truth <= ds.interval_upper.values)
         with open(path.parents[1] / "benchmarks" / "fit" / f"{RECORD}.tsv") as fh:
@@ -83,7 +84,8 @@ def main() -> None:
         print(f"seed {seed}: errors [%] "
               + " ".join(f"{p}={e * 100:+.2f}{'' if c else '(not covered)'}" for p, e, c in
                          zip(ds.parameter.values[ident], err[ident], cov[ident], strict=True))
-              + f"; unidentifiable: {[str(p) for p in ds.parameter.values[~ident]]}; delay "
+              + f"; unidentifiable: {[str(p) for p in ds.parameter.values[~ident]]}; fit "
+              f"{ds.attrs['fit_status']} ({ds.attrs['fit_reason']}); delay "
               f"{float(ds.delay) * 1e3:.4f} ms; fit job {job_s:.1f} s", flush=True)
     e, c = np.concatenate(errors), np.concatenate(covered)
     print(f"\n{args.seeds} seeds, version {args.version}: largest error "

@@ -1,6 +1,7 @@
 # Physical-parameter fit (the paper's future work, docs/fit.md): identify + design ->
 # fit {record} -> fit/{record}.nc, a config overlay of the fitted values, and its figure.
-# A bench record (measured:) is fitted where its nonparametric FRF is coherent instead.
+# A bench record (measured:) is fitted where its nonparametric FRF is coherent instead;
+# with fit.data: modes, the modal table fit.modes.file is fitted (fit.records names it).
 import gbpipe.config
 
 
@@ -15,6 +16,8 @@ def fit_targets():
 
 def _fit_inputs(w):
     method = config["fit"]["method"]
+    if config["fit"]["data"] == "modes":     # a modal table: no identification needed
+        return {"modes": config["fit"]["modes"]["file"]}
     if config["measured"]:
         return {"identified": f"{RESULTS}/identify/measured/{w.record}_{method}.nc"}
     # the predicted identifiable band of each pairing (one design job for every record)

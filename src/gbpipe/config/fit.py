@@ -1,7 +1,8 @@
 """Cross-field checks of the ``fit`` section (physical-parameter fit, docs/fit.md).
 
 The schema checks types and ranges; here: the records, version, method and pairings are
-among the identified ones, the band lies in the identification grid, every free key path
+among the identified ones (for a modal-table fit: the table is a file, its system the
+plant or a pairing), the band lies in the identification grid, every free key path
 names a positive number, the bounds are of free parameters, and the weights have the
 bounds they need. The start overlay is validated as a whole configuration by
 :func:`gbpipe.config.loader.validate` (it may not import this module's caller).
@@ -10,6 +11,7 @@ bounds they need. The start overlay is validated as a whole configuration by
 from __future__ import annotations
 
 from collections.abc import Mapping
+from pathlib import Path
 from typing import Any
 
 from gbpipe.config.schema_validation import suggest
@@ -38,6 +40,10 @@ def check_fit(cfg: Mapping[str, Any]) -> None:
     fit, idc = cfg["fit"], cfg["identify"]
     if not fit["records"]:
         return
+    if fit["data"] == "modes":
+        _check_modes(cfg)
+        _check_free(cfg)
+        return
     if cfg["measured"]:
         records, what = list(cfg["measured"]), "bench records (measured:)"
     else:
@@ -64,6 +70,30 @@ def check_fit(cfg: Mapping[str, Any]) -> None:
     if not f_min <= lo < hi <= f_max:
         raise ConfigError("fit.band", f"[{lo}, {hi}] Hz must be increasing and inside the "
                           f"identification grid identify.frf [{f_min}, {f_max}] Hz")
+    _check_free(cfg)
+
+
+def _check_modes(cfg: Mapping[str, Any]) -> None:
+    """A modal-table fit: the table exists, the system is the plant or a pairing."""
+    modes = cfg["fit"]["modes"]
+    if not modes.get("file"):
+        raise ConfigError("fit.modes.file", "fit.data: modes needs the modal table's path "
+                          "(CSV with frequency_hz, damping, frequency_spread_hz, "
+                          "damping_spread)")
+    if not Path(modes["file"]).is_file():
+        raise ConfigError("fit.modes.file", f"'{modes['file']}' is not a file (relative to "
+                          "the working directory)")
+    names = [p["name"] for p in cfg["identify"]["pairings"]]
+    _among("fit.modes.system", modes["system"], ["plant", *names],
+           "systems (plant or identify.pairings)")
+    lo, hi = modes["band"]
+    if not lo < hi:
+        raise ConfigError("fit.modes.band", f"[{lo}, {hi}] Hz must be increasing")
+
+
+def _check_free(cfg: Mapping[str, Any]) -> None:
+    """Every free key path names a positive bench number; bounds are of free ones."""
+    fit = cfg["fit"]
     for i, path in enumerate(fit["free"]):
         if not path.startswith(("gearbox.", "bench.")):
             raise ConfigError(f"fit.free[{i}]", f"'{path}' is not a number of the bench "

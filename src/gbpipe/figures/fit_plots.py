@@ -1,5 +1,6 @@
 """The physical fit's figure: the identified FRF with its 95 % bounds, the model at the
-prior and the fitted model, per fitted pairing, and the parameter table with intervals.
+prior and the fitted model, per fitted pairing (or, for a modal table, each mode's
+frequency error before and after), the goodness of fit, and the parameter table.
 
 Reads one ``fit`` stage dataset (:func:`gbpipe.model.fit_dataset`). See docs/fit.md.
 """
@@ -27,13 +28,34 @@ def fit_numbers(ds: xr.Dataset) -> dict[str, str]:
         iv = f", 95 % [{lo:.4g}, {hi:.4g}]" if np.isfinite(lo) else ""
         out[str(p)] = (f"{float(ds.prior[i]):.4g} -> {float(ds.estimate[i]):.4g} {unit}{iv} "
                        f"({ds.status.values[i]})")
-    if np.isfinite(float(ds.delay_lower)):
+    if "delay" in ds and np.isfinite(float(ds.delay_lower)):
         out["delay"] = (f"{float(ds.delay) * 1e3:.4f} ms, 95 % [{float(ds.delay_lower) * 1e3:.4f}, "
                         f"{float(ds.delay_upper) * 1e3:.4f}] ms")
     out["intervals"] = str(ds.attrs["interval_method"])
     out["cost"] = f"{float(ds.cost_prior):.3g} at the prior -> {float(ds.cost):.3g}"
     out["cannot separate"] = ds.attrs["cannot_separate"]
+    out["goodness"] = f"{ds.attrs['fit_status']}: {ds.attrs['fit_reason']}"
+    if "mode" in ds.dims:
+        fd = ds.mode_frequency_data.values
+        for key in ("prior", "fitted"):
+            err = 100 * (ds[f"mode_frequency_{key}"].values / fd - 1)
+            out[f"mode frequency error, {key}"] = ", ".join(f"{e:+.2f} %" for e in err)
     return out
+
+
+def _modes_panel(ax: plt.Axes, ds: xr.Dataset) -> None:
+    """Mode by mode: the frequency error [%] of the prior and the fitted model against
+    the data, with the data's 95 % band."""
+    fd = ds.mode_frequency_data.values
+    band = 100 * 1.96 * ds.mode_frequency_sd.values / fd
+    ax.errorbar(fd, np.zeros_like(fd), yerr=band, fmt="o", color="C0", ms=3,
+                label="data, 95 %")
+    ax.semilogx(fd, 100 * (ds.mode_frequency_prior.values / fd - 1), "C3x", label="prior")
+    ax.semilogx(fd, 100 * (ds.mode_frequency_fitted.values / fd - 1), "k+", label="fitted")
+    ax.set_xlabel("identified frequency [Hz]")
+    ax.set_ylabel("model − data [%]")
+    ax.set_title("modal table: frequency error per mode")
+    ax.legend(loc="best", fontsize=6)
 
 
 def fig_fit(ds: xr.Dataset, stem: str | os.PathLike, caption: str | os.PathLike,
@@ -51,18 +73,21 @@ def fig_fit(ds: xr.Dataset, stem: str | os.PathLike, caption: str | os.PathLike,
     record : str
         ``{test}_{profile}`` (for the title).
     """
+    frf = "frf_prior_real" in ds
     pairs = [(k, o, i) for k in range(ds.sizes["pairing"]) for o in range(ds.sizes["output"])
              for i in range(ds.sizes["input"])
-             if np.isfinite(ds.frf_prior_real.values[k, 0, o, i])]
-    ncols = min(len(pairs), 3)
-    nrows = -(-len(pairs) // ncols)
+             if np.isfinite(ds.frf_prior_real.values[k, 0, o, i])] if frf else []
+    n_panels = len(pairs) + ("mode" in ds.dims)
+    ncols = min(n_panels, 3)
+    nrows = -(-n_panels // ncols)
     mosaic = [[f"p{r * ncols + c}" for c in range(ncols)] for r in range(nrows)]
     mosaic.append(["table"] * ncols)
-    fig = plt.figure(figsize=(3.3 * ncols + 0.6, 2.5 * nrows + 1.0 + 0.22 * ds.sizes[
+    # at least 8 in wide: the parameter table and the two-line title need it
+    fig = plt.figure(figsize=(max(3.3 * ncols + 0.6, 8.0), 2.5 * nrows + 1.0 + 0.22 * ds.sizes[
         "parameter"]), layout="constrained")
     ax_of = fig.subplot_mosaic(mosaic, height_ratios=[1.0] * nrows + [
         0.3 + 0.1 * ds.sizes["parameter"]])
-    f = ds.frequency.values
+    f = ds.frequency.values if frf else None
 
     def db(name: str, k: int, o: int, i: int) -> np.ndarray:
         g = ds[f"{name}_real"].values[k, :, o, i] + 1j * ds[f"{name}_imag"].values[k, :, o, i]
@@ -84,7 +109,9 @@ def fig_fit(ds: xr.Dataset, stem: str | os.PathLike, caption: str | os.PathLike,
         ax.set_title(f"{ds.pairing.values[k]}{suffix}")
         ax.set_xlabel("frequency [Hz]")
         ax.set_ylabel(f"|G| [dB re 1 {ds.frf_unit.values[k]}]")
-    for n in range(len(pairs), nrows * ncols):
+    if "mode" in ds.dims:
+        _modes_panel(ax_of[f"p{len(pairs)}"], ds)
+    for n in range(n_panels, nrows * ncols):
         ax_of[f"p{n}"].set_axis_off()
     ax_of["p0"].legend(loc="best", fontsize=6)
     ax_of["table"].set_axis_off()
@@ -95,7 +122,7 @@ def fig_fit(ds: xr.Dataset, stem: str | os.PathLike, caption: str | os.PathLike,
                      f"{float(ds.estimate[j]):.4g}",
                      f"[{lo:.4g}, {hi:.4g}]" if np.isfinite(lo) else "–",
                      str(ds.status.values[j])])
-    if np.isfinite(float(ds.delay_lower)):
+    if "delay" in ds and np.isfinite(float(ds.delay_lower)):
         rows.append(["delay", "ms", "0", f"{float(ds.delay) * 1e3:.4g}",
                      f"[{float(ds.delay_lower) * 1e3:.4g}, {float(ds.delay_upper) * 1e3:.4g}]",
                      "fitted"])
@@ -105,8 +132,10 @@ def fig_fit(ds: xr.Dataset, stem: str | os.PathLike, caption: str | os.PathLike,
                               loc="center", cellLoc="left")
     table.auto_set_font_size(False)
     table.set_fontsize(7)
-    fig.suptitle(f"Physical fit to the identified FRFs, {record} "
-                 f"({ds.attrs['version']} data)", fontsize=10)
+    what = (f"the identified FRFs ({ds.attrs['version']} data)" if frf
+            else f"a modal table ({ds.attrs['system']} modes)")
+    fig.suptitle(f"Physical fit to {what}, {record}\ngoodness of fit: "
+                 f"{ds.attrs['fit_status']} ({ds.attrs['fit_reason']})", fontsize=9)
     save(fig, stem)
     numbers = fit_numbers(ds)
     write_caption(caption, f"Physical fit, {record}", "extension (the paper's future work)",
@@ -114,5 +143,9 @@ def fig_fit(ds: xr.Dataset, stem: str | os.PathLike, caption: str | os.PathLike,
                   "the band or where the design step predicts the pairing unidentifiable), "
                   "the bench model at the prior (red, dashed) and the fitted model (black), "
                   "and the fitted parameters with their 95 % intervals. An unidentifiable "
-                  "parameter keeps its prior and gets no interval.", numbers)
+                  "parameter keeps its prior and gets no interval; a fit that fails the "
+                  "chi-square test against the data's bounds is poor and none of its "
+                  "parameters is identified. For a modal table: each mode's frequency "
+                  "error of the prior (red) and the fitted model (black) against the data "
+                  "(blue, 95 % band).", numbers)
     return numbers

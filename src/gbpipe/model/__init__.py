@@ -32,6 +32,8 @@ jackknife_intervals
 fit_data, fit_dataset, parameter_unit, assessable_band
     The fit stage: identified FRFs to fit (band, predicted identifiable band, weights),
     and the stage's dataset (rule ``fit``).
+ModalData, read_modes_table, modal_fit_dataset
+    Fit to a modal table (identified frequencies and damping ratios with spreads).
 
 ``control.StateSpace`` forms: ``from gbpipe.model.control_models import gearbox, bench``.
 FRFs and modes of any state space: :func:`gbpipe.lti.frf`, :func:`gbpipe.lti.modes`.
@@ -45,7 +47,9 @@ from gbpipe.model.chain import Chain, build_chain
 from gbpipe.model.drivetrain import bench_mechanism, gearbox_mechanism, paper_drivetrain
 from gbpipe.model.fit import FitResult, fit_parameters
 from gbpipe.model.fit_bands import jackknife_intervals
-from gbpipe.model.fit_stage import assessable_band, fit_data, fit_dataset, parameter_unit
+from gbpipe.model.fit_modes import ModalData, read_modes_table
+from gbpipe.model.fit_report import modal_fit_dataset, parameter_unit
+from gbpipe.model.fit_stage import assessable_band, fit_data, fit_dataset
 from gbpipe.model.frf import Pairing, pairing_frf
 from gbpipe.model.frf_data import FrfData, sigma_from_bounds, sigma_from_coherence
 from gbpipe.model.identifiability import Identifiability, analyse, design_outputs
@@ -67,5 +71,6 @@ __all__ = [
     "identification_inputs", "model_datasets", "Pairing", "pairing_frf", "FrfData",
     "sigma_from_coherence", "sigma_from_bounds", "fit_parameters", "FitResult",
     "Identifiability", "analyse", "design_outputs", "fit_data", "fit_dataset",
-    "parameter_unit", "jackknife_intervals", "assessable_band",
+    "parameter_unit", "jackknife_intervals", "assessable_band", "ModalData",
+    "read_modes_table", "modal_fit_dataset",
 ]

@@ -27,12 +27,9 @@ from scipy.stats import t as student_t
 from gbpipe.errors import DataError
 from gbpipe.model.fit import FitResult, fit_parameters
 from gbpipe.model.frf_data import FrfData
+from gbpipe.model.goodness import band_of, log_bands
 
 __all__ = ["jackknife_intervals"]
-
-
-def _band_of(f: np.ndarray, edges: np.ndarray) -> np.ndarray:
-    return np.clip(np.searchsorted(edges, np.log(f), side="right") - 1, 0, edges.size - 2)
 
 
 def jackknife_intervals(result: FitResult, data: Sequence[FrfData], n_bands: int = 8,
@@ -67,26 +64,28 @@ def jackknife_intervals(result: FitResult, data: Sequence[FrfData], n_bands: int
         raise DataError("fit jackknife", f"{n_bands} bands over {f_fit.size} fitted "
                                          "frequencies: use at least 3 bands, at most one "
                                          "per frequency")
-    ident = result.identified
+    # the determined parameters get intervals (of a poor fit too: widened, not trusted)
+    ident = result.determined
     if not ident.any():
         return result       # nothing has an interval to widen
     # only the identified parameters move in the refits: the others stay where the fit
     # put them (their prior, or the point that goes with a held partner)
     free = [p for p, ok in zip(result.free, ident, strict=True) if ok]
-    edges = np.quantile(np.log(f_fit), np.linspace(0.0, 1.0, n_bands + 1))
+    edges = log_bands(f_fit, n_bands)
     delay = bool(fit_kwargs.get("delay", False))
     kwargs = {k: v for k, v in fit_kwargs.items()
-              if k not in ("n_starts", "n_global", "bounds", "factor", "seed")}
+              if k not in ("n_starts", "n_global", "bounds", "factor", "seed", "search")}
     estimates = []
     for b in range(n_bands):
         kept = []
         for d in data:
             g = d.frf.copy()
-            g[_band_of(d.f_hz, edges) == b] = np.nan
+            g[band_of(d.f_hz, edges) == b] = np.nan
             if np.isfinite(g).any():
                 kept.append(FrfData(d.pairing, d.f_hz, g, d.sigma))
         # one local run from the optimum: the band's absence moves it, not a new search
-        r = fit_parameters(result.config, kept, free, n_starts=1, n_global=0, **kwargs)
+        r = fit_parameters(result.config, kept, free, n_starts=1, n_global=0,
+                           search="starts", **kwargs)
         estimates.append(np.append(np.log(r.value), r.delay))
     theta = np.array(estimates)
     sd = np.sqrt((n_bands - 1) / n_bands * np.sum((theta - theta.mean(axis=0)) ** 2, axis=0))

@@ -21,11 +21,12 @@ import xarray as xr
 from gbpipe.errors import DataError
 from gbpipe.lti import pad
 from gbpipe.model.fit import FitResult
+from gbpipe.model.fit_report import result_variables
 from gbpipe.model.frf import MOTOR_INPUTS, Pairing, pairing_frf
 from gbpipe.model.frf_data import FrfData, sigma_from_bounds
 from gbpipe.model.identifiability import design_outputs
 
-__all__ = ["fit_data", "fit_dataset", "parameter_unit", "assessable_band", "WEIGHTS",
+__all__ = ["fit_data", "fit_dataset", "assessable_band", "WEIGHTS",
            "CANDIDATE_OUTPUTS"]
 
 log = logging.getLogger(__name__)
@@ -38,22 +39,6 @@ WEIGHTS = ("pairing", "bounds", "uniform")
 #: Outputs a design-help candidate may add (each with every fitted input).
 CANDIDATE_OUTPUTS = ("speed_gb2_hss", "speed_gb1_hss", "speed_lss", "torque_meter_driving",
                      "torque_meter_driven")
-_UNITS = {"inertia": "kg m2", "stiffness": "N m rad-1", "damping_ratio": "1",
-          "speed_controller.kp": "N m s rad-1", "speed_controller.ki": "N m rad-1",
-          "torque_controller.kp": "1", "torque_controller.ki": "s-1"}
-
-
-def parameter_unit(path: str) -> str:
-    """UDUNITS unit of a free parameter's key path (e.g. ``N m rad-1`` for a stiffness)."""
-    for key, unit in _UNITS.items():
-        if "." in key and key in path:
-            return unit
-    for key, unit in _UNITS.items():
-        if key in path:
-            return unit
-    return "1"
-
-
 def _model_index(identified: xr.Dataset, pairing: str, version: str) -> int:
     hit = np.nonzero((identified.pairing.values == pairing)
                      & (identified.version.values == version))[0]
@@ -207,85 +192,52 @@ def fit_dataset(result: FitResult, data: Sequence[FrfData], prior_cfg: Mapping[s
                             sigma=max(result.noise_scale * float(np.median(
                                 [np.median(1 / d.weight) for d in data])), 1e-6),
                             base=(v * np.sqrt(np.clip(w, 0.0, None))).T)
-    par = result.free
-    pdim, fdim = ("parameter",), ("pairing", "frequency", "output", "input")
-    units = [parameter_unit(p) for p in par]
+    fdim = ("pairing", "frequency", "output", "input")
+    v, c, attrs = result_variables(result)
 
     def var(dims: tuple[str, ...], values: Any, unit: str, name: str) -> tuple:
         return dims, values, {"units": unit, "long_name": name}
 
-    ds = xr.Dataset(
-        {
-            "prior": var(pdim, result.prior, "mixed (see parameter_units)",
-                         "value the fit started from"),
-            "estimate": var(pdim, result.value, "mixed (see parameter_units)",
-                            "fitted value (the prior for an unidentifiable parameter)"),
-            "interval_lower": var(pdim, result.interval[:, 0], "mixed (see parameter_units)",
-                                  "lower end of the 95 % interval"),
-            "interval_upper": var(pdim, result.interval[:, 1], "mixed (see parameter_units)",
-                                  "upper end of the 95 % interval"),
-            "status": var(pdim, np.array(result.status), "1",
-                          "identified, conditional (partner held) or unidentifiable"),
-            "correlation": var(("parameter", "parameter_col"), result.correlation, "1",
-                               "correlation of the identified log-parameters"),
-            "delay": var((), result.delay, "s", "fitted input-to-output delay"),
-            "delay_lower": var((), result.delay_interval[0], "s",
-                               "lower end of the delay's 95 % interval"),
-            "delay_upper": var((), result.delay_interval[1], "s",
-                               "upper end of the delay's 95 % interval"),
-            "cost_prior": var((), result.cost_prior, "1",
-                              "half sum of squared weighted residuals at the prior"),
-            "cost": var((), result.cost, "1", "half sum of squared weighted residuals"),
-            "noise_scale": var((), result.noise_scale, "1",
-                               "standard deviation of a weighted residual (interval scale)"),
-            "start_cost": var(("start",), result.start_costs, "1",
-                              "final cost of each local start"),
-            "fitted": var(("pairing", "frequency"), fitted, "1",
-                          "frequency entered the fit (in band, predicted identifiable)"),
-            "frf_data_real": var(fdim, g_data.real, "mixed (see frf_unit)",
-                                 "identified FRF (the data), real part"),
-            "frf_data_imag": var(fdim, g_data.imag, "mixed (see frf_unit)",
-                                 "identified FRF (the data), imaginary part"),
-            "frf_data_lower_db": var(fdim, stacked(lower), "dB",
-                                     "95 % lower bound of the identified magnitude"),
-            "frf_data_upper_db": var(fdim, stacked(upper), "dB",
-                                     "95 % upper bound of the identified magnitude"),
-            "frf_prior_real": var(fdim, g_prior.real, "mixed (see frf_unit)",
-                                  "model FRF at the prior, real part"),
-            "frf_prior_imag": var(fdim, g_prior.imag, "mixed (see frf_unit)",
-                                  "model FRF at the prior, imaginary part"),
-            "frf_fitted_real": var(fdim, g_fit.real, "mixed (see frf_unit)",
-                                   "fitted model FRF (with the fitted delay), real part"),
-            "frf_fitted_imag": var(fdim, g_fit.imag, "mixed (see frf_unit)",
-                                   "fitted model FRF (with the fitted delay), imaginary "
-                                   "part"),
-            "design_rank": var(("candidate",), [r["rank"] for r in design], "1",
-                               "determined directions with the candidate output added"),
-            "design_identifiable": var(("candidate",), np.array(
-                [", ".join(r["identifiable"]) for r in design]), "1",
-                "free parameters the data would determine with the candidate added"),
-        },
-        coords={
-            "parameter": var(pdim, np.array(par), "1", "free parameter (config key path)"),
-            "parameter_col": var(("parameter_col",), np.array(par), "1",
-                                 "free parameter (config key path)"),
-            "parameter_units": var(pdim, np.array(units), "1", "unit of each parameter"),
-            "start": var(("start",), np.arange(result.start_costs.size), "1",
-                         "local least-squares start"),
-            "pairing": var(("pairing",), np.array([p.name for p in pairings]), "1",
-                           "fitted pairing"),
-            "frequency": var(("frequency",), f, "Hz", "frequency"),
-            "output": var(("output",), np.arange(no), "1", "output index"),
-            "input": var(("input",), np.arange(ni), "1", "input index"),
-            "frf_unit": var(("pairing",), identified.frf_unit.values[rows].astype(str), "1",
-                            "unit of each pairing's FRF"),
-            "candidate": var(("candidate",), np.array(
-                ["(as fitted)" if r["added"] is None else r["added"] for r in design]), "1",
-                "output added by the design help (first: none)"),
-        },
-        attrs={"version": version, "n_free": len(par),
-               "interval_method": result.interval_method,
-               "cannot_separate": " | ".join(result.combinations) or "(nothing)",
-               "n_evaluations": result.n_evaluations},
-    )
-    return ds
+    v.update({
+        "delay": var((), result.delay, "s", "fitted input-to-output delay"),
+        "delay_lower": var((), result.delay_interval[0], "s",
+                           "lower end of the delay's 95 % interval"),
+        "delay_upper": var((), result.delay_interval[1], "s",
+                           "upper end of the delay's 95 % interval"),
+        "fitted": var(("pairing", "frequency"), fitted, "1",
+                      "frequency entered the fit (in band, predicted identifiable)"),
+        "frf_data_real": var(fdim, g_data.real, "mixed (see frf_unit)",
+                             "identified FRF (the data), real part"),
+        "frf_data_imag": var(fdim, g_data.imag, "mixed (see frf_unit)",
+                             "identified FRF (the data), imaginary part"),
+        "frf_data_lower_db": var(fdim, stacked(lower), "dB",
+                                 "95 % lower bound of the identified magnitude"),
+        "frf_data_upper_db": var(fdim, stacked(upper), "dB",
+                                 "95 % upper bound of the identified magnitude"),
+        "frf_prior_real": var(fdim, g_prior.real, "mixed (see frf_unit)",
+                              "model FRF at the prior, real part"),
+        "frf_prior_imag": var(fdim, g_prior.imag, "mixed (see frf_unit)",
+                              "model FRF at the prior, imaginary part"),
+        "frf_fitted_real": var(fdim, g_fit.real, "mixed (see frf_unit)",
+                               "fitted model FRF (with the fitted delay), real part"),
+        "frf_fitted_imag": var(fdim, g_fit.imag, "mixed (see frf_unit)",
+                               "fitted model FRF (with the fitted delay), imaginary part"),
+        "design_rank": var(("candidate",), [r["rank"] for r in design], "1",
+                           "determined directions with the candidate output added"),
+        "design_identifiable": var(("candidate",), np.array(
+            [", ".join(r["identifiable"]) for r in design]), "1",
+            "free parameters the data would determine with the candidate added"),
+    })
+    c.update({
+        "pairing": var(("pairing",), np.array([p.name for p in pairings]), "1",
+                       "fitted pairing"),
+        "frequency": var(("frequency",), f, "Hz", "frequency"),
+        "output": var(("output",), np.arange(no), "1", "output index"),
+        "input": var(("input",), np.arange(ni), "1", "input index"),
+        "frf_unit": var(("pairing",), identified.frf_unit.values[rows].astype(str), "1",
+                        "unit of each pairing's FRF"),
+        "candidate": var(("candidate",), np.array(
+            ["(as fitted)" if r["added"] is None else r["added"] for r in design]), "1",
+            "output added by the design help (first: none)"),
+    })
+    return xr.Dataset(v, coords=c, attrs={**attrs, "data": "frf", "version": version})

@@ -1,0 +1,140 @@
+"""Benchmark: does the physical fit find the minimum from the nominal bench, or say it did not?
+
+Truth: the paper's bench (config/config.yaml) with six parameters perturbed; the sets are
+the user's of the issue (HSS coupling ×1.22, housing mounts ×0.78, stage-3 stiffness ×1.35,
+LSS shaft ×0.86, shaft damping ratio ×1.3, driver-motor inertia ×0.75) and ``--sets``
+random ones: six key paths drawn from :data:`POOL`, each ×(1 ± u), u uniform in
+[0.15, 0.40], sign random (``numpy.random.default_rng(1000 + k)``).
+
+Data ("clean", cheap): the perturbed truth's exact FRFs of every ``identify.pairings``
+entry on the identification grid (5–350 Hz, 240 points) with a complex log-normal scatter
+of ``--sigma`` Np/rad (default 0.02: a 95 % band of ±0.34 dB, the order of the jackknife
+bounds of PBSID models of clean records) and that sigma given. So the cost at the truth
+is ≈ N/2 and a fit in the right basin reaches it or lower. Start: the nominal config.
+
+Per set it prints cost at fit / cost at truth, each parameter's error [%] and status, the
+fit's goodness verdict, the global stages run and the CPU time; then the summary of the
+issue's criterion: every set either within 5 % of the cost at the truth (unless a
+parameter is held at its prior) with every identified parameter within 2 % (5 % from
+modes), or reported ``poor``; and the share of ``identified`` 95 % intervals that exclude
+the truth.
+
+With ``--modes`` the data are each set's open-loop modes below 350 Hz instead (0.5 %
+frequency and 10 % damping spread, drawn around the truth; ``gbpipe.model.fit_modes``).
+
+Usage: ``OMP_NUM_THREADS=1 python benchmarks/fit_global.py [--sets 12] [--sigma 0.02]
+[--search auto|starts|evolution] [--modes]``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+from pathlib import Path
+
+import numpy as np
+
+from gbpipe.config import load
+from gbpipe.model.fit import fit_parameters
+from gbpipe.model.fit_modes import ModalResiduals, modal_data_of
+from gbpipe.model.fit_residuals import FrfResiduals
+from gbpipe.model.frf import Pairing, pairing_frf
+from gbpipe.model.frf_data import FrfData
+from gbpipe.model.keypath import get_value, with_values
+from gbpipe.model.parameters import FreeParameters
+
+CONFIG = Path(__file__).resolve().parents[1] / "config" / "config.yaml"
+USER = {"bench.coupling.stiffness": 1.22, "gearbox.housing.stiffness": 0.78,
+        "gearbox.stiffness[2]": 1.35, "bench.lss_shaft.stiffness": 0.86,
+        "gearbox.damping_ratio.shaft": 1.3, "bench.motor_inertia.driver": 0.75}
+#: Parameters a random set draws from: the bench's inertias, stiffnesses and damping.
+POOL = ["gearbox.inertia[0]", "gearbox.inertia[1]", "gearbox.inertia[2]",
+        "gearbox.inertia[3]", "gearbox.stiffness[0]", "gearbox.stiffness[1]",
+        "gearbox.stiffness[2]", "gearbox.housing.stiffness", "gearbox.housing.inertia",
+        "bench.coupling.stiffness", "bench.lss_shaft.stiffness",
+        "gearbox.damping_ratio.shaft", "bench.motor_inertia.driver",
+        "bench.motor_inertia.driven", "bench.coupling.damping_ratio"]
+
+
+def perturbation_sets(n: int) -> list[dict[str, float]]:
+    """The user's set, then ``n`` random 6-parameter sets at ±15–40 %."""
+    out = [USER]
+    for k in range(n):
+        rng = np.random.default_rng(1000 + k)
+        paths = [str(p) for p in rng.choice(POOL, 6, replace=False)]
+        u = rng.uniform(0.15, 0.40, 6) * rng.choice([-1.0, 1.0], 6)
+        out.append(dict(zip(paths, 1.0 + u, strict=True)))
+    return out
+
+
+def clean_data(truth: dict, pairings: list[Pairing], f: np.ndarray, sigma: float,
+               rng: np.random.Generator) -> list[FrfData]:
+    """Exact FRFs of ``truth`` with complex log-normal scatter ``sigma``, sigma given."""
+    return [FrfData(p, f, g * np.exp(sigma * (rng.standard_normal(g.shape)
+                                              + 1j * rng.standard_normal(g.shape))), sigma)
+            for p, g in zip(pairings, pairing_frf(truth, pairings, f), strict=True)]
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--sets", type=int, default=12, help="random sets beside the user's")
+    ap.add_argument("--sigma", type=float, default=0.02)
+    ap.add_argument("--search", default="auto", choices=["auto", "starts", "evolution"])
+    ap.add_argument("--modes", action="store_true",
+                    help="fit each set's open-loop modes below 350 Hz instead (0.5 %% "
+                         "frequency, 10 %% damping spread)")
+    args = ap.parse_args()
+    cfg = load(CONFIG)
+    fr = cfg["identify"]["frf"]
+    f = np.geomspace(fr["f_min"], fr["f_max"], fr["points"])
+    pairings = [Pairing.from_config(p) for p in cfg["identify"]["pairings"]]
+    ok_sets, excluded, n_ident, cpus = 0, 0, 0, []
+    tolerance = 5.0 if args.modes else 2.0      # % (the issue's criteria)
+    for k, factors in enumerate(perturbation_sets(args.sets)):
+        free = list(factors)
+        truth = with_values(cfg, {p: get_value(cfg, p) * x for p, x in factors.items()})
+        theta_true = np.log(list(factors.values()))
+        fp = FreeParameters.from_config(cfg, free)
+        if args.modes:
+            data = modal_data_of(truth, None, 350.0, 0.005, 0.1, np.random.default_rng(k))
+            r = ModalResiduals(fp, data).residual(theta_true)
+        else:
+            data = clean_data(truth, pairings, f, args.sigma, np.random.default_rng(k))
+            r = FrfResiduals(fp, data, False).residual(theta_true)
+        cost_truth = 0.5 * float(r @ r)
+        t = time.process_time()
+        res = fit_parameters(cfg, data, free, seed=k, search=args.search)
+        cpus.append(time.process_time() - t)
+        true = np.array([get_value(truth, p) for p in free])
+        err = 100 * (res.value / true - 1)
+        ident = res.identified
+        inside = (res.interval[:, 0] <= true) & (true <= res.interval[:, 1])
+        excluded += int(np.sum(ident & ~inside))
+        n_ident += int(ident.sum())
+        ratio = res.cost / cost_truth
+        # a parameter held at its prior (unidentifiable) leaves the cost above the truth's
+        # by design: then only the identified parameters are judged
+        held = "unidentifiable" in res.status
+        met = ((ratio <= 1.05 or held) and np.all(np.abs(err[ident]) < tolerance)) or \
+            res.goodness.status == "poor"
+        ok_sets += met
+        name = "user" if k == 0 else f"random {k}"
+        print(f"set {name}: cost/truth {ratio:.4f}, goodness {res.goodness.status} "
+              f"({res.goodness.reason}), {res.search}, CPU {cpus[-1]:.1f} s, "
+              f"{res.n_evaluations} evaluations, criterion {'met' if met else 'NOT met'}")
+        for p, x, e, s, ins in zip(free, factors.values(), err, res.status, inside,
+                                   strict=True):
+            print(f"    {p:30s} x{x:.3f}  error {e:+8.3f} %  {s}"
+                  f"{'' if s != 'identified' or ins else '  (interval excludes truth)'}")
+        for c in res.combinations:
+            print(f"    cannot separate: {c}")
+    n = args.sets + 1
+    print(f"\n{ok_sets} of {n} sets meet the criterion (cost within 5 % of the truth's, "
+          f"unless a parameter is held at its prior, and identified parameters within "
+          f"{tolerance:g} %, or reported poor); identified 95 % intervals "
+          f"excluding the truth: {excluded} of {n_ident}; CPU per fit median "
+          f"{np.median(cpus):.1f} s, max {np.max(cpus):.1f} s")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,135 @@
+"""What every physical fit writes, whatever its data: parameters, goodness, modes.
+
+:func:`result_variables` gives the variables and coordinates of a
+:class:`gbpipe.model.fit.FitResult` common to the FRF fit (:func:`gbpipe.model.fit_dataset`)
+and the modal-table fit (:func:`modal_fit_dataset`): estimates with their 95 % intervals
+and status, correlations, costs, the chi-square test and where its misfit sits (per
+pairing or mode, per frequency band), and for a modal table the mode-by-mode comparison
+of data, prior and fitted model. See docs/fit.md and docs/architecture.md ("Data
+contract").
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import xarray as xr
+
+from gbpipe.model.fit import FitResult
+
+__all__ = ["result_variables", "modal_fit_dataset", "parameter_unit"]
+
+_UNITS = {"inertia": "kg m2", "stiffness": "N m rad-1", "damping_ratio": "1",
+          "speed_controller.kp": "N m s rad-1", "speed_controller.ki": "N m rad-1",
+          "torque_controller.kp": "1", "torque_controller.ki": "s-1"}
+
+
+def parameter_unit(path: str) -> str:
+    """UDUNITS unit of a free parameter's key path (e.g. ``N m rad-1`` for a stiffness)."""
+    for key, unit in _UNITS.items():
+        if "." in key and key in path:
+            return unit
+    for key, unit in _UNITS.items():
+        if key in path:
+            return unit
+    return "1"
+
+
+def _var(dims: tuple[str, ...], values: Any, unit: str, name: str) -> tuple:
+    return dims, values, {"units": unit, "long_name": name}
+
+
+def result_variables(result: FitResult) -> tuple[dict[str, tuple], dict[str, tuple],
+                                                 dict[str, Any]]:
+    """Data variables, coordinates and attributes of a fit result.
+
+    Returns
+    -------
+    variables, coords, attrs : dict
+        For :class:`xarray.Dataset`. The misfit shares are on ``misfit_group`` (the
+        pairings or modes, in fit order) and ``band`` (frequency bands, edges in
+        ``band_lower``/``band_upper`` [Hz]).
+    """
+    par, g = result.free, result.goodness
+    pdim, mixed = ("parameter",), "mixed (see parameter_units)"
+    v = {
+        "prior": _var(pdim, result.prior, mixed, "value the fit started from"),
+        "estimate": _var(pdim, result.value, mixed,
+                         "fitted value (the prior for an unidentifiable parameter)"),
+        "interval_lower": _var(pdim, result.interval[:, 0], mixed,
+                               "lower end of the 95 % interval"),
+        "interval_upper": _var(pdim, result.interval[:, 1], mixed,
+                               "upper end of the 95 % interval"),
+        "status": _var(pdim, np.array(result.status), "1",
+                       "identified, poor (determined, fit failed its chi-square test), "
+                       "conditional (partner held) or unidentifiable"),
+        "correlation": _var(("parameter", "parameter_col"), result.correlation, "1",
+                            "correlation of the determined log-parameters"),
+        "cost_prior": _var((), result.cost_prior, "1",
+                           "half sum of squared weighted residuals at the prior"),
+        "cost": _var((), result.cost, "1", "half sum of squared weighted residuals"),
+        "noise_scale": _var((), result.noise_scale, "1",
+                            "standard deviation of a weighted residual (interval scale)"),
+        "start_cost": _var(("start",), result.start_costs, "1",
+                           "final cost of each local run (starts, then the evolution's)"),
+        "chi2": _var((), g.chi2, "1", "sum of squared weighted residuals at the fit"),
+        "chi2_dof": _var((), g.dof, "1", "effective degrees of freedom N/c - n"),
+        "chi2_p": _var((), g.p_value, "1", "p-value of the chi-square test"),
+        "correlation_factor": _var((), g.correlation_factor, "1",
+                                   "correlation factor c of the residuals along frequency"),
+        "misfit_share": _var(("misfit_group",), g.group_share, "1",
+                             "share of chi2 of each pairing (or mode)"),
+        "misfit_count_share": _var(("misfit_group",), g.group_count_share, "1",
+                                   "share of the residuals of each pairing (or mode)"),
+        "band_misfit_share": _var(("band",), g.band_share, "1",
+                                  "share of chi2 of each frequency band"),
+        "band_count_share": _var(("band",), g.band_count_share, "1",
+                                 "share of the residuals of each frequency band"),
+    }
+    c = {
+        "parameter": _var(pdim, np.array(par), "1", "free parameter (config key path)"),
+        "parameter_col": _var(("parameter_col",), np.array(par), "1",
+                              "free parameter (config key path)"),
+        "parameter_units": _var(pdim, np.array([parameter_unit(p) for p in par]), "1",
+                                "unit of each parameter"),
+        "start": _var(("start",), np.arange(result.start_costs.size), "1", "local run"),
+        "misfit_group": _var(("misfit_group",), np.array(g.groups), "1",
+                             "pairing (or mode) of the misfit shares"),
+        "band_lower": _var(("band",), g.band_edges[:-1], "Hz", "lower edge of the band"),
+        "band_upper": _var(("band",), g.band_edges[1:], "Hz", "upper edge of the band"),
+    }
+    m = result.modes
+    if m is not None:
+        mdim = ("mode",)
+        for key, unit, name in (
+                ("frequency_data", "Hz", "identified natural frequency (the data)"),
+                ("frequency_sd", "Hz", "standard deviation of the identified frequency"),
+                ("frequency_prior", "Hz", "matched model frequency at the prior"),
+                ("frequency_fitted", "Hz", "matched model frequency at the fit"),
+                ("damping_data", "1", "identified damping ratio (the data)"),
+                ("damping_sd", "1", "standard deviation of the identified damping ratio"),
+                ("damping_prior", "1", "matched model damping ratio at the prior"),
+                ("damping_fitted", "1", "matched model damping ratio at the fit")):
+            v[f"mode_{key}"] = _var(mdim, getattr(m, key), unit, name)
+        c["mode"] = _var(mdim, np.arange(1, m.frequency_data.size + 1), "1", "mode number")
+    attrs = {"fit_status": g.status, "fit_reason": g.reason, "chi2_alpha": g.alpha,
+             "search": result.search, "n_free": len(par),
+             "interval_method": result.interval_method,
+             "cannot_separate": " | ".join(result.combinations) or "(nothing)",
+             "n_evaluations": result.n_evaluations}
+    return v, c, attrs
+
+
+def modal_fit_dataset(result: FitResult, system: str) -> xr.Dataset:
+    """Everything a fit to a modal table produced, as a CF dataset.
+
+    Parameters
+    ----------
+    result : FitResult
+        A fit to :class:`gbpipe.model.fit_modes.ModalData` (with ``modes``).
+    system : str
+        Whose modes were fitted: ``plant`` or a pairing's name.
+    """
+    v, c, attrs = result_variables(result)
+    return xr.Dataset(v, coords=c, attrs={**attrs, "data": "modes", "system": system})
