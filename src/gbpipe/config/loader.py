@@ -4,6 +4,9 @@
 ``configfile:`` plus ``--configfile`` overlays (mappings merged key by key, lists
 replaced), then :func:`validate` makes it complete and checks it, in this order:
 
+0. ``drivetrain: {opentorsion: file.py:function}`` read into the plain description
+   (:func:`gbpipe.model.opentorsion_io.expand`, the file relative to the working
+   directory), so the schema and the checks below see it like any other;
 1. the closed schema, with every number finite and in range, and the schema's defaults
    filled in (:mod:`gbpipe.config.schema_validation`);
 2. the gearbox: teeth that assemble and mesh, list lengths per stage, cycle names
@@ -42,6 +45,7 @@ from gbpipe.config import (
 from gbpipe.config.derive import Config, derive
 from gbpipe.config.schema_validation import apply_schema
 from gbpipe.errors import ConfigError
+from gbpipe.model import opentorsion_io
 
 __all__ = ["load", "validate", "merge", "read_yaml", "fit_prior"]
 
@@ -83,7 +87,10 @@ def validate(cfg: Mapping[str, Any], *, check_stability: bool = True) -> Config:
         Naming the key path, the value and the fix (:class:`gbpipe.errors.UnstableGain`
         for unstable gains).
     """
-    out = apply_schema(cfg.explicit() if isinstance(cfg, Config) else cfg)
+    cfg = cfg.explicit() if isinstance(cfg, Config) else cfg
+    if isinstance(cfg.get("drivetrain"), Mapping):
+        cfg = {**cfg, "drivetrain": opentorsion_io.expand(cfg["drivetrain"])}
+    out = apply_schema(cfg)
     gearbox.check_gearbox(out)
     gearbox.check_cycle_names(out)
     drivetrain.check_drivetrain(out)

@@ -257,7 +257,7 @@ def _set_damping(mech: Mechanism, frames: list[str], absolute: set[str]) -> None
 def _spring(entry: Mapping[str, Any], incidence: dict[str, float], kind: str) -> Spring:
     return Spring(entry["name"], incidence, float(entry["stiffness"]),
                   float(entry.get("damping", 0.0)), kind,
-                  float(entry.get("damping_ratio", 0.0)))
+                  float(entry.get("damping_ratio", 0.0)), float(entry.get("inertia", 0.0)))
 
 
 def _motor(i: int, m: Mapping[str, Any]) -> Motor:
