@@ -29,10 +29,10 @@ from typing import Any, NamedTuple
 
 import numpy as np
 import pandas as pd
-import yaml
 from nptdms import ChannelObject, TdmsWriter
 from scipy import linalg, signal
 
+from gbpipe.config.loader import read_yaml
 from gbpipe.lti import lsim
 from gbpipe.model.assembly import bench_chain, bench_ss
 from gbpipe.model.keypath import get_value, with_values
@@ -68,7 +68,7 @@ class ShaftlineTruth(NamedTuple):
 
 def example_drivetrain() -> dict[str, Any]:
     """``{"drivetrain": ...}`` of config/examples/shaftline.yaml."""
-    return {"drivetrain": yaml.safe_load(EXAMPLE.read_text())["drivetrain"]}
+    return {"drivetrain": read_yaml(EXAMPLE)["drivetrain"]}
 
 
 def _static_speeds(cfg: dict, speed: float) -> dict[str, float]:

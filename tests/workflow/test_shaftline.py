@@ -1,0 +1,48 @@
+"""config/examples/shaftline.yaml end to end: a shaft line nobody modelled, identified and
+fitted from bench files the test writes.
+
+The files hold a record simulated from the example's chain with three parameters
+perturbed (tests/measured/shaftline_bench.py: the project's closed loop, exact ZOH, sensor
+noise); the workflow reads them (measured), identifies the drive motor's pairings
+(identify_measured) and fits the example's ``fit.free`` from the nominal chain. The fitted
+values are judged against the perturbed truth the test wrote, not against the fit's own
+intervals.
+"""
+
+from __future__ import annotations
+
+from gbpipe import io
+from gbpipe.model.keypath import get_value
+from tests.measured.shaftline_bench import example_drivetrain, write_bench
+from tests.workflow.runs import copy_repo, snakemake
+
+#: The perturbation written into the record (key path -> factor), 15-40 % each.
+PERTURB = {"drivetrain.disks.flywheel.inertia": 0.80, "drivetrain.shafts[2].stiffness": 1.35,
+           "drivetrain.mounts[0].stiffness": 1.25}
+#: Largest relative error of a fitted parameter [-]: the issue's 3 %.
+TOLERANCE = 0.03
+
+
+def test_shaftline_example_fits_the_perturbed_chain(tmp_path):
+    work = copy_repo(tmp_path)
+    truth = write_bench(work / "shaftline", perturb=PERTURB, duration=20.0, seed=1)
+    snakemake(work, "--configfile", "config/ci.yaml", "config/examples/shaftline.yaml",
+              "--nolock", "results/fit/run1.nc")
+    fit = io.read(work / "results" / "fit" / "run1.nc")
+    names = [str(p) for p in fit.parameter.values]
+    assert sorted(names) == sorted(PERTURB)
+    nominal = example_drivetrain()
+    for k, path in enumerate(names):
+        true = get_value(truth.cfg, path)
+        # the record is of the perturbed chain, the fit started from the nominal one
+        assert abs(true / get_value(nominal, path) - PERTURB[path]) < 1e-12
+        got = float(fit.estimate.values[k])
+        assert abs(got / true - 1) <= TOLERANCE, (path, got, true)
+    # the chi-square verdict: poor exactly when p < alpha, and then no parameter is
+    # called identified (the PBSID models of a 20 s record are tighter than their misfit:
+    # the verdict may be poor while the values hold; docs/drivetrain.md)
+    poor = float(fit.chi2_p) < float(fit.attrs["chi2_alpha"])
+    assert (fit.attrs["fit_status"] == "poor") == poor
+    if poor:
+        assert set(fit.status.values) == {"poor"}
+        assert "misfit in" in fit.attrs["fit_reason"]
