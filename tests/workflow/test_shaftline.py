@@ -11,10 +11,14 @@ intervals.
 
 from __future__ import annotations
 
+import pytest
+
 from gbpipe import io
+from gbpipe.config import load
+from gbpipe.errors import ConfigError
 from gbpipe.model.keypath import get_value
 from tests.measured.shaftline_bench import example_drivetrain, write_bench
-from tests.workflow.runs import copy_repo, snakemake
+from tests.workflow.runs import ROOT, copy_repo, snakemake
 
 #: The perturbation written into the record (key path -> factor), 15-40 % each.
 PERTURB = {"drivetrain.disks.flywheel.inertia": 0.80, "drivetrain.shafts[2].stiffness": 1.35,
@@ -46,3 +50,16 @@ def test_shaftline_example_fits_the_perturbed_chain(tmp_path):
     if poor:
         assert set(fit.status.values) == {"poor"}
         assert "misfit in" in fit.attrs["fit_reason"]
+
+
+@pytest.mark.parametrize(("overlay", "field"), [
+    ({"fit": {"free": ["gearbox.stiffness[1]"]}}, "fit.free[0]"),   # the paper's, not this chain's
+    ({"fit": {"signals": {"motor_torque_drive": "motor_torque_driver"}}},
+     "fit.signals.motor_torque_drive"),                           # not a motor of the chain
+])
+def test_fit_of_a_drivetrain_refuses_the_paper_bench_names(overlay, field):
+    files = (ROOT / "config" / "config.yaml", ROOT / "config" / "examples" / "shaftline.yaml")
+    load(*files)  # the example itself loads
+    with pytest.raises(ConfigError) as exc:
+        load(*files, overlay)
+    assert exc.value.field == field

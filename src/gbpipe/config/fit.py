@@ -98,7 +98,8 @@ def _check_free(cfg: Mapping[str, Any]) -> None:
         sections = ("drivetrain.",) if cfg.get("drivetrain") else ("gearbox.", "bench.")
         if not path.startswith(sections):
             raise ConfigError(f"fit.free[{i}]", f"'{path}' is not a number of the bench "
-                              f"model: free keys of the {' or '.join(sections)} sections, "
+                              f"model: free keys of the {' or '.join(x[:-1] for x in sections)} "
+                              "section, "
                               "e.g. " + ("'drivetrain.shafts[0].stiffness'"
                                          if cfg.get("drivetrain") else "'gearbox.stiffness[1]'"))
         try:
