@@ -11,12 +11,14 @@ intervals.
 
 from __future__ import annotations
 
+import numpy as np
 import pytest
 
 from gbpipe import io
 from gbpipe.config import load
 from gbpipe.errors import ConfigError
 from gbpipe.model.keypath import get_value
+from gbpipe.model.stage import model_datasets
 from tests.measured.shaftline_bench import example_drivetrain, write_bench
 from tests.workflow.runs import ROOT, copy_repo, snakemake
 
@@ -63,3 +65,23 @@ def test_fit_of_a_drivetrain_refuses_the_paper_bench_names(overlay, field):
     with pytest.raises(ConfigError) as exc:
         load(*files, overlay)
     assert exc.value.field == field
+
+
+def test_model_stage_of_the_drivetrain_gives_its_own_signals():
+    """The model stage's bench FRFs of a described chain are over its motors and sensors;
+    at 0.1 Hz the chain turns rigidly: the load turns at the gears' 21·24/(42·60) of the
+    motor's speed, and the torque loop's integrator holds the output torque at its
+    reference (0 dB)."""
+    cfg = load(ROOT / "config" / "config.yaml", ROOT / "config" / "examples" / "shaftline.yaml")
+    bench = model_datasets(cfg, cfg["identify"])["bench"]
+    assert list(bench.plant_frf_input.values) == ["motor_torque_drive", "motor_torque_load"]
+    assert set(bench.plant_frf_output.values) == {s["name"] for s in
+                                                  cfg["drivetrain"]["sensors"]}
+    m = bench.closed_frf_magnitude.isel(frequency=0)   # dB
+    assert float(bench.frequency[0]) <= 0.1
+    ratio = 20 * np.log10(24 / 60 * 21 / 42)
+    got = (m.sel(closed_frf_input="speed_ref", closed_frf_output="speed_load")
+           - m.sel(closed_frf_input="speed_ref", closed_frf_output="speed_motor"))
+    assert abs(float(got) - ratio) < 0.01
+    assert abs(float(m.sel(closed_frf_input="torque_ref", closed_frf_output="torque_output"))) \
+        < 0.01
