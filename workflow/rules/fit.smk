@@ -36,7 +36,8 @@ def _fit_pairings():
 def _fit_prior():
     # the bench the fit starts from: the config with fit.start merged (validated at load)
     prior = gbpipe.config.fit_prior(config) if config["fit"]["start"] else config
-    return {k: prior[k] for k in ("gearbox", "bench")}
+    # the model sections: a described drivetrain, else the paper's gearbox + bench
+    return {k: prior[k] for k in ("gearbox", "bench", "drivetrain") if prior.get(k)}
 
 
 rule fit:

@@ -17,7 +17,6 @@ from typing import Any
 from gbpipe.config.schema_validation import suggest
 from gbpipe.errors import ConfigError
 from gbpipe.model import bench_ss
-from gbpipe.model.frf import MOTOR_INPUTS
 from gbpipe.model.keypath import get_value
 
 __all__ = ["check_fit", "model_signal"]
@@ -95,10 +94,14 @@ def _check_free(cfg: Mapping[str, Any]) -> None:
     """Every free key path names a positive bench number; bounds are of free ones."""
     fit = cfg["fit"]
     for i, path in enumerate(fit["free"]):
-        if not path.startswith(("gearbox.", "bench.")):
+        # the model is the drivetrain's when one is described, else gearbox + bench
+        sections = ("drivetrain.",) if cfg.get("drivetrain") else ("gearbox.", "bench.")
+        if not path.startswith(sections):
             raise ConfigError(f"fit.free[{i}]", f"'{path}' is not a number of the bench "
-                              "model: free keys of the gearbox or bench sections, e.g. "
-                              "'gearbox.stiffness[1]'")
+                              f"model: free keys of the {' or '.join(x[:-1] for x in sections)} "
+                              "section, "
+                              "e.g. " + ("'drivetrain.shafts[0].stiffness'"
+                                         if cfg.get("drivetrain") else "'gearbox.stiffness[1]'"))
         try:
             value = get_value(cfg, path)
         except ConfigError as exc:
@@ -119,11 +122,13 @@ def model_signal(cfg: Mapping[str, Any], name: str) -> str:
 
 def _check_signals(cfg: Mapping[str, Any]) -> None:
     """Every signal of a fitted pairing is (or is mapped to) a signal of the bench model."""
-    outputs = bench_ss(cfg, closed=False).outputs
+    plant = bench_ss(cfg, closed=False)  # the drivetrain's (or the paper's) signals
+    outputs = plant.outputs
+    motor_inputs = [u for u in plant.inputs if u.startswith("motor_torque_")]
     fit = cfg["fit"]
     for name in fit["pairings"]:
         pairing = next(p for p in cfg["identify"]["pairings"] if p["name"] == name)
-        for key, valid in (("inputs", list(MOTOR_INPUTS)), ("outputs", list(outputs))):
+        for key, valid in (("inputs", motor_inputs), ("outputs", list(outputs))):
             for s in pairing[key]:
                 if model_signal(cfg, s) not in valid:
                     raise ConfigError(f"fit.signals.{s}", f"'{model_signal(cfg, s)}' (pairing "

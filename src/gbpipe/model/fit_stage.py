@@ -20,6 +20,7 @@ import xarray as xr
 
 from gbpipe.errors import DataError
 from gbpipe.lti import pad
+from gbpipe.model.assembly import bench_ss
 from gbpipe.model.fit import FitResult
 from gbpipe.model.fit_report import result_variables
 from gbpipe.model.frf import MOTOR_INPUTS, Pairing, pairing_frf
@@ -136,12 +137,18 @@ def fit_data(identified: xr.Dataset, identifiable: xr.DataArray, pairings: Seque
     return out
 
 
-def _candidates(data: Sequence[FrfData]) -> list[Pairing]:
+def _candidates(data: Sequence[FrfData], cfg: Mapping[str, Any]) -> list[Pairing]:
     # an added sensor (another output of a fitted input) or an added excitation (the
-    # other motor's torque to any output): every SISO path not fitted yet
+    # other motor's torque to any output): every SISO path not fitted yet; a configured
+    # drivetrain offers its own motors and sensors
     used = {(u, y) for d in data for u in d.pairing.inputs for y in d.pairing.outputs}
-    return [Pairing(f"{u}_to_{y}", (u,), (y,)) for u in MOTOR_INPUTS
-            for y in CANDIDATE_OUTPUTS if (u, y) not in used]
+    inputs, outputs = MOTOR_INPUTS, CANDIDATE_OUTPUTS
+    if cfg.get("drivetrain"):
+        plant = bench_ss(cfg, closed=False)
+        inputs = tuple(u for u in plant.inputs if u.startswith("motor_torque_"))
+        outputs = tuple(plant.outputs)
+    return [Pairing(f"{u}_to_{y}", (u,), (y,)) for u in inputs
+            for y in outputs if (u, y) not in used]
 
 
 def fit_dataset(result: FitResult, data: Sequence[FrfData], prior_cfg: Mapping[str, Any],
@@ -188,7 +195,8 @@ def fit_dataset(result: FitResult, data: Sequence[FrfData], prior_cfg: Mapping[s
     # scale; the delay held), each candidate added at the fitted data's typical noise
     n = len(result.free)
     w, v = np.linalg.eigh(result.identifiability.fisher[:n, :n])
-    design = design_outputs(result.config, result.free, pairings, _candidates(data), f,
+    candidates = _candidates(data, result.config)
+    design = design_outputs(result.config, result.free, pairings, candidates, f,
                             sigma=max(result.noise_scale * float(np.median(
                                 [np.median(1 / d.weight) for d in data])), 1e-6),
                             base=(v * np.sqrt(np.clip(w, 0.0, None))).T)

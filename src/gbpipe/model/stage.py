@@ -56,7 +56,9 @@ def model_datasets(cfg: Mapping[str, Any], truth_cfg: Mapping[str, Any]
         frequencies [Hz], FRFs on the model grid, attribute ``gear_damping_note``);
         ``bench``: open-loop plant (prefix ``plant_``) and closed-loop bench (prefix
         ``closed_``) with the FRFs of :data:`PLANT_FRF_INPUTS` x :data:`PLANT_FRF_OUTPUTS`
-        and :data:`CLOSED_FRF_INPUTS` x :data:`CLOSED_FRF_OUTPUTS`;
+        and :data:`CLOSED_FRF_INPUTS` x :data:`CLOSED_FRF_OUTPUTS` (with a ``drivetrain:``,
+        its motor torques x sensors, and its references and disturbances x sensors and
+        motor torques);
         ``truth``: :func:`gbpipe.model.truth_dataset` of every identification pairing.
     """
     f = frequency_grid(**cfg["model"]["frf"])
@@ -66,12 +68,21 @@ def model_datasets(cfg: Mapping[str, Any], truth_cfg: Mapping[str, Any]
     gearbox.attrs["gear_damping_note"] = GEAR_DAMPING_NOTE
 
     b_mech = bench_chain(cfg).mechanism
-    bench = statespace_dataset(bench_ss(cfg, closed=False), f, prefix="plant_", mech=b_mech,
-                               frf_inputs=list(PLANT_FRF_INPUTS),
-                               frf_outputs=list(PLANT_FRF_OUTPUTS))
-    bench = bench.merge(statespace_dataset(bench_ss(cfg), f, prefix="closed_",
-                                           frf_inputs=list(CLOSED_FRF_INPUTS),
-                                           frf_outputs=list(CLOSED_FRF_OUTPUTS)))
+    plant, closed = bench_ss(cfg, closed=False), bench_ss(cfg)
+    if cfg.get("drivetrain"):
+        # a described chain: its own motors and sensors (the excitation angles left out,
+        # as the paper's lists leave them)
+        motors = [u for u in plant.inputs if u.startswith("motor_torque_")]
+        plant_io = (motors, plant.outputs)
+        closed_io = ([u for u in closed.inputs if u not in plant.inputs], closed.outputs)
+    else:
+        plant_io = (list(PLANT_FRF_INPUTS), list(PLANT_FRF_OUTPUTS))
+        closed_io = (list(CLOSED_FRF_INPUTS), list(CLOSED_FRF_OUTPUTS))
+    bench = statespace_dataset(plant, f, prefix="plant_", mech=b_mech,
+                               frf_inputs=list(plant_io[0]), frf_outputs=list(plant_io[1]))
+    bench = bench.merge(statespace_dataset(closed, f, prefix="closed_",
+                                           frf_inputs=list(closed_io[0]),
+                                           frf_outputs=list(closed_io[1])))
 
     truth = truth_dataset(cfg, truth_cfg["pairings"], frequency_grid(**truth_cfg["frf"]),
                           truth_cfg["frf"]["f_max"], truth_cfg["zeta_max"])

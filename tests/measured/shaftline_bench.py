@@ -1,0 +1,194 @@
+"""Bench files of a drivetrain described in config: a chain simulated as a bench logs it.
+
+Given a config's ``drivetrain:`` description (docs/drivetrain.md), the chain is built
+with the project's one mechanics core (:func:`gbpipe.model.assembly.bench_ss`: the
+plant of :func:`gbpipe.model.chain.build_chain` with every motor's loop closed by
+:func:`gbpipe.model.statespace.close_loops`) and simulated exactly (zero-order hold,
+:func:`gbpipe.lti.lsim`). Excitation: a band-limited random torque added to the command of
+the excited motors (``disturbance_<motor>``, seeded, independent; default the first
+motor only, so that its measured torque is the one input of the record and the other
+motors' loops are part of the path, as the truth model of a one-motor pairing holds
+them), the references held at the operating point. Written: a CSV with the motor
+torques (time column) and a TDMS file with the sensors and a 0-5 V tacho on one disk
+(``wf_increment`` time base), each signal with seeded white sensor noise; plus the
+``measured:`` mapping that reads them.
+
+The operating point (a constant speed of the drive motor, a constant load torque) is
+added as static offsets: the deviations are what the linear model predicts, and the
+offsets follow from the gear ratios (lossless statics), so the record is consistent.
+
+Run as a script to write the example's files: ``python tests/measured/shaftline_bench.py
+shaftline/`` (the chain of ``config/examples/shaftline.yaml``, seed 1).
+"""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+from typing import Any, NamedTuple
+
+import numpy as np
+import pandas as pd
+from nptdms import ChannelObject, TdmsWriter
+from scipy import linalg, signal
+
+from gbpipe.config.loader import read_yaml
+from gbpipe.lti import lsim
+from gbpipe.model.assembly import bench_chain, bench_ss
+from gbpipe.model.keypath import get_value, with_values
+from tests.measured.bench_campaign import EPOCH, tacho_voltage
+
+ROOT = Path(__file__).resolve().parents[2]
+EXAMPLE = ROOT / "config" / "examples" / "shaftline.yaml"
+#: Operating point: drive-motor speed [rad/s] (1000 rpm) and the load motor's torque [N·m].
+SPEED, LOAD_TORQUE = 104.7, 150.0
+#: Random motor-torque excitation: rms as a share of the load torque [-], band [Hz].
+EXCITATION_SHARE, EXCITATION_BAND = 0.2, 400.0
+#: Sensor noise: rms as a share of each signal's dynamic rms [-].
+NOISE_SHARE = 0.02
+
+
+class ShaftlineTruth(NamedTuple):
+    """What the files encode.
+
+    Attributes
+    ----------
+    cfg : dict
+        ``{"drivetrain": ...}`` the record was simulated from (perturbations applied).
+    spec : dict
+        The ``measured:`` entry (paths relative to the folder).
+    signals : dict of str -> ndarray
+        Signal name -> values written [SI] (the noise included).
+    """
+
+    cfg: dict
+    spec: dict
+    signals: dict
+
+
+def example_drivetrain() -> dict[str, Any]:
+    """``{"drivetrain": ...}`` of config/examples/shaftline.yaml."""
+    return {"drivetrain": read_yaml(EXAMPLE)["drivetrain"]}
+
+
+def _static_speeds(cfg: dict, speed: float) -> dict[str, float]:
+    """Every disk's speed [rad/s] when the chain turns rigidly (no spring twisted, the
+    ground held) with its first disk at ``speed``: the null space of the twist maps."""
+    mech = bench_chain(cfg).mechanism
+    q = linalg.null_space(np.vstack(list(mech.twist_maps().values())))[:, 0]
+    full = mech.T @ q
+    return {b.name: speed * v / full[0] for b, v in zip(mech.bodies, full, strict=True)}
+
+
+def simulate(cfg: dict, fs: float, duration: float, seed: int, tacho_disk: str,
+             excited: tuple[str, ...]) -> dict[str, np.ndarray]:
+    """The chain's logged signals [SI] on a uniform grid at ``fs`` [Hz] for ``duration`` [s],
+    the motors named in ``excited`` driven by random torques."""
+    rng = np.random.default_rng(seed)
+    ss = bench_ss(cfg)
+    n = int(round(duration * fs))
+    t = np.arange(n) / fs
+    b, a = signal.butter(4, EXCITATION_BAND, fs=fs)
+    u = np.zeros((n, len(ss.inputs)))
+    for i, name in enumerate(ss.inputs):
+        if name.removeprefix("disturbance_") in excited:
+            u[:, i] = signal.lfilter(b, a, rng.standard_normal(n))
+            u[:, i] *= EXCITATION_SHARE * LOAD_TORQUE / u[:, i].std()
+    y, _ = lsim(ss, u, 1.0 / fs)
+    speeds = _static_speeds(cfg, SPEED)
+    desc = cfg["drivetrain"]
+    out: dict[str, np.ndarray] = {"time": t}
+    for j, name in enumerate(ss.outputs):
+        dyn = y[:, j] + NOISE_SHARE * y[:, j].std() * rng.standard_normal(n)
+        out[name] = dyn + _offset(desc, name, speeds)
+    node = tacho_disk
+    out["tacho"] = tacho_voltage(t, speeds[node] + y[:, ss.outputs.index(_speed_sensor(
+        desc, node))], 1)
+    return out
+
+
+def _speed_sensor(desc: dict, node: str) -> str:
+    return next(s["name"] for s in desc["sensors"] if s.get("speed") == node)
+
+
+def _offset(desc: dict, name: str, speeds: dict[str, float]) -> float:
+    # static value of a signal at the operating point (lossless: torque x speed constant)
+    sensor = next((s for s in desc["sensors"] if s["name"] == name), None)
+    load = next(m for m in desc["motors"] if m["controller"]["type"] == "torque")
+    power = LOAD_TORQUE * abs(speeds[load["node"]])
+    if sensor is None:  # motor_torque_<motor>
+        motor = next(m for m in desc["motors"] if name == f"motor_torque_{m['name']}")
+        return power / abs(speeds[motor["node"]])
+    if "speed" in sensor:
+        return speeds[sensor["speed"]]
+    if "torque" in sensor:
+        spring = next(s for s in desc["shafts"] + desc.get("mounts", [])
+                      if s["name"] == sensor["torque"])
+        if "between" not in spring:
+            return 0.0
+        return sensor.get("sign", 1) * power / abs(speeds[spring["between"][0]])
+    return 0.0
+
+
+def write_bench(folder: Path, cfg: dict | None = None, *, fs: float = 2000.0,
+                duration: float = 30.0, seed: int = 1, perturb: dict | None = None,
+                tacho_disk: str = "load", name: str = "run1",
+                excited: tuple[str, ...] | None = None) -> ShaftlineTruth:
+    """Write a record of a drivetrain as bench files in ``folder``; return the truth.
+
+    Parameters
+    ----------
+    folder : Path
+        Where ``<name>_motors.csv`` and ``<name>.tdms`` go (created).
+    cfg : dict, optional
+        Holds ``drivetrain:`` (default the example's chain).
+    fs, duration : float
+        Logging rate [Hz] and record length [s].
+    seed : int
+        Seed of the excitation and the sensor noise.
+    perturb : dict, optional
+        Key path -> factor applied to the description before simulating
+        (``{"drivetrain.disks.flywheel.inertia": 1.3}``).
+    tacho_disk : str
+        The disk whose speed sensor drives the tacho.
+    name : str
+        Record name (file stem).
+    excited : tuple of str, optional
+        Motors driven by a random torque (default the first motor of the description).
+    """
+    cfg = example_drivetrain() if cfg is None else {"drivetrain": cfg["drivetrain"]}
+    if perturb:
+        cfg = with_values(cfg, {p: f * get_value(cfg, p) for p, f in perturb.items()})
+    folder.mkdir(parents=True, exist_ok=True)
+    if excited is None:
+        excited = (cfg["drivetrain"]["motors"][0]["name"],)
+    sig = simulate(cfg, fs, duration, seed, tacho_disk, excited)
+    motors = [k for k in sig if k.startswith("motor_torque_")]
+    sensors = [k for k in sig if k not in motors and k != "time"]
+    pd.DataFrame({"time": sig["time"], **{m: sig[m] for m in motors}}).to_csv(
+        folder / f"{name}_motors.csv", index=False, float_format="%.12g")
+    props = {"wf_increment": 1.0 / fs, "wf_start_offset": 0.0, "wf_start_time": EPOCH}
+    units = {"tacho": "V"}
+    with TdmsWriter(folder / f"{name}.tdms") as w:
+        w.write_segment([ChannelObject("Sensors", s, sig[s], properties={
+            **props, "unit_string": units.get(s, _unit(s))}) for s in sensors])
+    spec = {"files": {"motors": {"path": f"{name}_motors.csv", "time": "time"},
+                      "daq": {"path": f"{name}.tdms"}},
+            "sample_rate": fs,
+            "signals": {**{m: {"file": "motors", "channel": m, "unit": "N*m"} for m in motors},
+                        **{s: {"file": "daq", "channel": f"Sensors/{s}"} for s in sensors
+                           if s != "tacho"},
+                        "tacho": {"file": "daq", "channel": "Sensors/tacho",
+                                  "quantity": "tacho", "pulses_per_rev": 1}},
+            "gaps": "refuse", "orders": []}
+    return ShaftlineTruth(cfg, spec, sig)
+
+
+def _unit(signal_name: str) -> str:
+    return "rad/s" if signal_name.startswith("speed") else "N*m"
+
+
+if __name__ == "__main__":
+    out = Path(sys.argv[1] if len(sys.argv) > 1 else "shaftline")
+    write_bench(out)
+    print(f"bench files written to {out}/")
