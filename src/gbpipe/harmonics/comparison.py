@@ -42,14 +42,26 @@ __all__ = ["method_params", "compare_method", "removal_rows", "method_residuals"
 log = logging.getLogger(__name__)
 
 
-def method_params(removal_cfg: Mapping[str, Any], method: str,
-                  families: Families) -> dict[str, Any]:
+def method_params(removal_cfg: Mapping[str, Any], method: str, families: Families,
+                  modes: np.ndarray | None = None) -> dict[str, Any]:
     """Keyword arguments of ``method`` from ``cfg["removal"][method]``.
 
     A per-family ``knot_spacing`` of the regression keeps the families at hand (and
-    ``default``): the tests remove fewer families than the sweep.
+    ``default``): the tests remove fewer families than the sweep. The regression's
+    ``modal_envelope`` becomes its ``modes``: ``modes`` (frequency [Hz], damping ratio
+    [-]; :func:`gbpipe.harmonics.envelope_modes` of the bench model).
+
+    Raises
+    ------
+    ValueError
+        ``modal_envelope`` is on and no ``modes`` are given.
     """
     params = dict(removal_cfg[method])
+    if params.pop("modal_envelope", False):
+        if modes is None:
+            raise ValueError("removal.regression.modal_envelope needs the bench modes: "
+                             "pass envelope_modes(bench, spectra) as modes")
+        params["modes"] = np.asarray(modes, dtype=float)
     spacing = params.get("knot_spacing")
     if isinstance(spacing, Mapping):
         params["knot_spacing"] = {k: v for k, v in spacing.items()
