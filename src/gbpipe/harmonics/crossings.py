@@ -17,12 +17,13 @@ that also take the broadband response of the mode around the order.
 * :func:`half_power_band` -- the mode's half-power band ``f_n (1 +- zeta)`` [Hz];
 * :func:`crossing_pairs` -- which orders come near which modes over a record;
 * :func:`modal_carriers` -- the swept modal response of those orders;
-* :func:`crossing_marks` -- per rpm bin, the (order, mode) pairs inside a half-power band.
+* :func:`crossing_marks` -- per rpm bin, the (order, mode) pairs inside a half-power band;
+* :func:`crossing_lines` -- per family, band and rpm bin, the order and mode of a crossing.
 """
 
 from __future__ import annotations
 
-from collections.abc import Iterator, Sequence
+from collections.abc import Iterator, Mapping, Sequence
 
 import numpy as np
 from scipy.signal import lfilter
@@ -30,7 +31,7 @@ from scipy.signal import lfilter
 from gbpipe.harmonics.checks import as_positive
 
 __all__ = ["half_power_band", "crossing_pairs", "modal_carriers", "crossing_marks",
-           "as_modes"]
+           "crossing_lines", "as_modes"]
 
 
 def as_modes(modes: Sequence[Sequence[float]] | np.ndarray) -> np.ndarray:
@@ -154,3 +155,43 @@ def crossing_marks(orders: np.ndarray, rpm_lower: np.ndarray, rpm_upper: np.ndar
     f_lo = np.asarray(rpm_lower, dtype=float)[:, None, None] / 60.0 * o
     f_hi = np.asarray(rpm_upper, dtype=float)[:, None, None] / 60.0 * o
     return (f_hi >= band[None, None, :, 0]) & (f_lo <= band[None, None, :, 1])
+
+
+def crossing_lines(families: Mapping[str, np.ndarray], rpm_lower: np.ndarray,
+                   rpm_upper: np.ndarray, modes: Sequence[Sequence[float]] | np.ndarray,
+                   band_limits: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Per family, frequency band and rpm bin: the order inside a mode's half-power band,
+    and that mode.
+
+    Parameters
+    ----------
+    families : mapping str -> array_like
+        Orders [HSS orders] of each family.
+    rpm_lower, rpm_upper : array_like
+        Speed limits of each rpm bin [rev/min].
+    modes : array_like, shape (modes, 2)
+        Frequency [Hz] and damping ratio [-] of each mode.
+    band_limits : numpy.ndarray, shape (bands, 2)
+        Lower and upper limit of each frequency band [Hz]; a mode belongs to the bands
+        holding its frequency.
+
+    Returns
+    -------
+    order, mode : numpy.ndarray, shape (families, bands, bins)
+        The lowest order of the family within the half-power band of a mode of the band
+        [HSS orders], and that mode's frequency [Hz]; NaN where none is.
+    """
+    m = as_modes(modes)
+    shape = (len(families), len(band_limits), np.size(rpm_lower))
+    order, mode = np.full(shape, np.nan), np.full(shape, np.nan)
+    for k, ords in enumerate(families.values()):
+        o = np.sort(np.asarray(ords, dtype=float))
+        marks = crossing_marks(o, rpm_lower, rpm_upper, m)  # (bins, orders, modes)
+        for b, (lo, hi) in enumerate(band_limits):
+            of_band = (m[:, 0] >= lo) & (m[:, 0] <= hi)
+            for i in range(shape[2]):
+                hit = np.argwhere(marks[i][:, of_band])  # (order, mode) rows, by order
+                if hit.size:
+                    order[k, b, i] = o[hit[0, 0]]
+                    mode[k, b, i] = m[of_band][hit[0, 1], 0]
+    return order, mode
