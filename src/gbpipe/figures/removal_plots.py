@@ -226,7 +226,8 @@ def removal_crossing_figure(datasets: Mapping[str, xr.Dataset], record: np.ndarr
     resolution : float
         Resolution of the waterfalls behind the band powers [Hz].
     fine_bins : int
-        rpm bins over the zoom (the worst metric bin and its neighbours).
+        Most rpm bins over the zoom (the worst metric bin and its neighbours); fewer
+        where the sweep crosses the zoom in fewer than two waterfall frames per bin.
     units : str
         Unit of the signals, as written in labels.
     tolerance_db : float
@@ -245,8 +246,14 @@ def removal_crossing_figure(datasets: Mapping[str, xr.Dataset], record: np.ndarr
     first = next(iter(datasets.values()))
     limits = (float(first.band_lower[b]), float(first.band_upper[b]))
     lo_i, hi_i = max(i - 1, 0), min(i + 1, first.sizes["rpm"] - 1)
-    edges = np.linspace(float(first.rpm_lower[lo_i]), float(first.rpm_upper[hi_i]),
-                        fine_bins + 1)
+    span = (float(first.rpm_lower[lo_i]), float(first.rpm_upper[hi_i]))
+    # at most one bin per two waterfall frames (hop 1 / (2 resolution) s) in the zoom: a
+    # fast sweep crosses it in a few frames
+    p = np.asarray(pulse_times, dtype=float)
+    rev_rpm = 60.0 / (np.diff(p) * pulses_per_rev)
+    inside = (rev_rpm >= span[0]) & (rev_rpm <= span[1])
+    n_frames = float(np.sum(np.diff(p)[inside])) * 2.0 * resolution
+    edges = np.linspace(*span, int(np.clip(n_frames // 2, 3, fine_bins)) + 1)
     names = list(datasets)
     power = band_power_vs_rpm([record, random_only,
                                *(datasets[m].residual.values for m in names)], fs,
