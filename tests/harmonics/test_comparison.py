@@ -107,8 +107,10 @@ def test_modal_envelope_needs_and_passes_the_bench_modes():
     cfg = {"regression": {"knot_spacing": 2.0, "modal_envelope": True}}
     with pytest.raises(ValueError, match="bench modes"):
         method_params(cfg, "regression", {"shaft": [1.0]})
-    got = method_params(cfg, "regression", {"shaft": [1.0]}, np.array([[62.0, 0.02]]))
+    got = method_params(cfg, "regression", {"shaft": [1.0], "motor": [12.0]},
+                        np.array([[62.0, 0.02]]))
     assert "modal_envelope" not in got
+    assert got["modal_families"] == ["shaft"]  # the pulsating torque follows the load
     np.testing.assert_array_equal(got["modes"], [[62.0, 0.02]])
 
 

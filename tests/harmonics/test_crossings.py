@@ -96,6 +96,9 @@ def test_a_slow_envelope_alone_cannot_follow_the_ring_up(crossings):
     left = _remove(rec["h"], rec)
     t = rec["t"]
     assert 10 * np.log10(_band_power(rec["h"], t) / _band_power(left, t)) < 40.0
+    # a family left out of modal_families is fitted by its envelope alone
+    np.testing.assert_allclose(_remove(rec["h"], rec, modes=[MODE], modal_families=[]),
+                               left, rtol=0, atol=1e-9 * np.max(np.abs(rec["h"])))
 
 
 def test_modes_are_checked(crossings):

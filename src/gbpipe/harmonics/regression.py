@@ -28,7 +28,7 @@ complement.
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Collection, Mapping, Sequence
 from typing import Literal
 
 import numpy as np
@@ -164,6 +164,7 @@ def residual_regression(x: np.ndarray, fs: float, pulse_times: np.ndarray,
                         ridge: float = 1e-10,
                         modes: Sequence[Sequence[float]] | None = None,
                         mode_reach: float = 3.0,
+                        modal_families: Collection[str] | None = None,
                         block: int = 8192, t0: float = 0.0,
                         method: AngleMethod = "pchip") -> np.ndarray:
     """Remove order families by joint least-squares regression on the shaft angle.
@@ -201,6 +202,11 @@ def residual_regression(x: np.ndarray, fs: float, pulse_times: np.ndarray,
         each group's carriers meet the other groups' lines unfitted: use one spacing.
     mode_reach : float
         Half-power half widths ``zeta f_n`` within which an order counts as near a mode [-].
+    modal_families : collection of str, optional
+        The families whose orders get modal carriers (default: all). The carrier's one
+        coefficient assumes the family's excitation constant over the record: a family
+        whose excitation follows the operating point (the converters' pulsating torque on
+        ramp tests with steps) is fitted better by its envelope alone.
     block : int
         Samples per block of the normal-equation accumulation (memory per block).
 
@@ -226,6 +232,7 @@ def residual_regression(x: np.ndarray, fs: float, pulse_times: np.ndarray,
             out = residual_regression(out, fs, pulse_times, group, pulses_per_rev,
                                       basis=basis, knot_spacing=spacing, degree=degree,
                                       ridge=ridge, modes=modes, mode_reach=mode_reach,
+                                      modal_families=modal_families,
                                       block=block, t0=t0, method=method)
         return out
     xa = np.asarray(x, dtype=float)
@@ -233,8 +240,8 @@ def residual_regression(x: np.ndarray, fs: float, pulse_times: np.ndarray,
     if multi:  # every channel checked; the first one carries the angle map's checks
         for j in range(xa.shape[1]):
             as_signal(xa[:, j], f"x[:, {j}]")
-    rec, _, orders = removal_inputs(xa[:, 0] if multi else xa, fs, pulse_times, families,
-                                    pulses_per_rev, t0, method)
+    rec, fam, orders = removal_inputs(xa[:, 0] if multi else xa, fs, pulse_times, families,
+                                      pulses_per_rev, t0, method)
     knot_spacing = as_positive(knot_spacing, "knot_spacing", "s")
     ridge = as_positive(ridge, "ridge", "relative units")
     degree = as_count(degree, "degree")
@@ -251,8 +258,11 @@ def residual_regression(x: np.ndarray, fs: float, pulse_times: np.ndarray,
         m = as_modes(modes)
         mode_reach = as_positive(mode_reach, "mode_reach", "half-power half widths")
         rate = np.diff(rec.theta) * fs / (2 * np.pi)  # shaft rate [rev/s]
-        pairs = crossing_pairs(orders, (float(rate.min()), float(rate.max())), m,
-                               mode_reach)
+        carried = np.concatenate([np.full(o.size, modal_families is None
+                                          or name in modal_families)
+                                  for name, o in fam.items()])
+        pairs = [(k, j) for k, j in crossing_pairs(
+            orders, (float(rate.min()), float(rate.max())), m, mode_reach) if carried[k]]
     per_function = 2 * orders.size + 1
     n_unknown = amp.size * per_function
     width = amp.support * per_function  # columns touched by one block
