@@ -4,13 +4,14 @@ and the swept modal response a line takes on there.
 Where an order's frequency ``f_o(t) = o * rpm(t) / 60`` passes a mode ``(f_n, zeta)``,
 the line in a response signal is the excitation times the bench's FRF at ``f_o(t)``: its
 amplitude and phase ring up and down with the mode, on the mode's time constant
-``1 / (zeta * 2 pi f_n)`` (0.13 s for the 62 Hz bench mode), far faster than a slowly
-varying envelope can follow. The modal part of that FRF is a complex first-order system
+``1 / (zeta * 2 pi f_n)`` (0.15 s for the 62 Hz bench mode) and over the dwell in the
+half-power band, faster than an envelope coarse enough to leave the broadband response
+alone can follow. The modal part of that FRF is a complex first-order system
 with the mode's pole ``p = -zeta w_n + i w_n sqrt(1 - zeta^2)``; filtering the order's
 unit phasor ``exp(i o theta(t))`` through it gives the line's swept modal response
 *exactly*, sweep-rate effects (the ringing after the passage) included: the *modal
-carrier* :func:`modal_carriers`. A regression that spends two slowly varying
-coefficients on it per mode (:func:`gbpipe.harmonics.residual_regression`, ``modes``)
+carrier* :func:`modal_carriers`. A regression that spends one complex coefficient on
+it per order and mode (:func:`gbpipe.harmonics.residual_regression`, ``modes``)
 follows the ring-up with the few parameters of a slow envelope, instead of fine knots
 that also take the broadband response of the mode around the order.
 

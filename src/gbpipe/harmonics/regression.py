@@ -199,7 +199,8 @@ def residual_regression(x: np.ndarray, fs: float, pulse_times: np.ndarray,
         mode's time constant, which a slow envelope cannot follow and fine knots follow
         only by taking the mode's broadband response too (docs/removal.md, "Crossings").
         With a per-family ``knot_spacing`` the groups are fitted one after the other and
-        each group's carriers meet the other groups' lines unfitted: use one spacing.
+        a group's carriers meet the later groups' lines unfitted: give carriers
+        (``modal_families``) only to the families of the last group.
     mode_reach : float
         Half-power half widths ``zeta f_n`` within which an order counts as near a mode [-].
     modal_families : collection of str, optional
