@@ -26,7 +26,8 @@ def _records(sw: dict) -> tuple[xr.Dataset, xr.Dataset, xr.Dataset]:
                            "pulse_time": ("pulse", sw["pulses"], {"units": "s"})},
                           coords={"time": ("time", sw["t"], {"units": "s"})}, attrs=attrs)
 
-    bench = xr.Dataset({"closed_mode_frequency": ("closed_mode", [1.0, 62.0, 900.0])})
+    bench = xr.Dataset({"closed_mode_frequency": ("closed_mode", [1.0, 62.0, 900.0]),
+                        "closed_mode_damping": ("closed_mode", [0.1, 0.02, 0.05])})
     return record(sw["x"]), record(sw["res"]), bench
 
 
@@ -70,6 +71,25 @@ def test_rows_hold_every_method_family_bin_and_band(scored):
         assert r["rpm_lower"] < r["rpm"] < r["rpm_upper"]
 
 
+def test_rows_name_the_order_and_mode_of_every_half_power_crossing(scored, sw):
+    # independent: each order's frequency on a dense rpm grid of the bin, against the
+    # 62 Hz mode's half-power band 62 (1 +- 0.02) Hz
+    rows = [r for r in removal_rows([scored]) if r["band"] == "mode_62.0Hz"]
+    fams = _families(sw)
+    marked = 0
+    for r in rows:
+        f = np.linspace(r["rpm_lower"], r["rpm_upper"], 2001)[:, None] / 60.0 * np.sort(
+            np.asarray(fams[r["family"]], dtype=float))[None, :]
+        inside = ((f >= 62.0 * 0.98) & (f <= 62.0 * 1.02)).any(axis=0)
+        if inside.any():
+            marked += 1
+            assert r["crossing_order"] == pytest.approx(np.sort(fams[r["family"]])[inside][0])
+            assert r["crossing_mode"] == 62.0
+        else:
+            assert np.isnan(r["crossing_order"]) and np.isnan(r["crossing_mode"])
+    assert marked >= 1  # the synthetic sweep takes an order through the mode
+
+
 def test_a_different_random_only_record_is_refused(sw):
     sweep, rnd, bench = _records(sw)
     with pytest.raises(Exception, match="random-only sweep"):
@@ -81,6 +101,17 @@ def test_method_params_keep_the_families_at_hand():
     cfg = {"regression": {"knot_spacing": {"default": 1.0, "shaft": 2.0, "mesh1": 2.0}}}
     got = method_params(cfg, "regression", {"shaft": [1.0], "mesh2": [5.3]})
     assert got["knot_spacing"] == {"default": 1.0, "shaft": 2.0}
+
+
+def test_modal_envelope_needs_and_passes_the_bench_modes():
+    cfg = {"regression": {"knot_spacing": 2.0, "modal_envelope": True}}
+    with pytest.raises(ValueError, match="bench modes"):
+        method_params(cfg, "regression", {"shaft": [1.0]})
+    got = method_params(cfg, "regression", {"shaft": [1.0], "motor": [12.0]},
+                        np.array([[62.0, 0.02]]))
+    assert "modal_envelope" not in got
+    assert got["modal_families"] == ["shaft"]  # the pulsating torque follows the load
+    np.testing.assert_array_equal(got["modes"], [[62.0, 0.02]])
 
 
 def test_method_residuals_keep_the_low_part_and_remove_the_lines(sw):

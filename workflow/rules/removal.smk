@@ -16,7 +16,8 @@ def removal_targets():
     """Final targets of the removal comparison (for `all_targets`)."""
     if not REMOVAL_METHODS:
         return []
-    return [f"{RESULTS}/tables/removal.csv"] + figure("removal_tradeoff")
+    return ([f"{RESULTS}/tables/removal.csv"] + figure("removal_tradeoff")
+            + figure("removal_crossing"))
 
 
 def _removal_test_jobs():
@@ -96,6 +97,32 @@ rule figures_removal:
         **DECLARED.resources("figures_removal"),
     script:
         "../scripts/figures_removal.py"
+
+
+rule figures_removal_crossing:
+    message:
+        "Figure: the mode band at the worst order/mode crossing, in the record, its "
+        "random-only twin and every method's residual"
+    input:
+        methods=expand(f"{RESULTS}/removal/{{m}}.nc", m=REMOVAL_METHODS),
+        sweep=rules.sweep.output.nc,
+        random=rules.sweep.output.random,
+        code=code("figures_removal_crossing.py"),
+    params:
+        methods=REMOVAL_METHODS,
+        signal=config["spectra"]["signal"],
+        formats=FIGURE_FORMATS,
+    output:
+        **figure_outputs("removal_crossing", "Harmonic removal", name="removal_crossing"),
+    log:
+        f"{RESULTS}/logs/figures_removal_crossing.log",
+    benchmark:
+        f"{RESULTS}/benchmarks/figures_removal_crossing.tsv"
+    threads: DECLARED.threads("figures_removal_crossing")
+    resources:
+        **DECLARED.resources("figures_removal_crossing"),
+    script:
+        "../scripts/figures_removal_crossing.py"
 
 
 rule removal_tests:

@@ -2,7 +2,12 @@
 separation metric against the random-only sweep."""
 
 from gbpipe import io
-from gbpipe.harmonics import compare_method, excitation_families, method_params
+from gbpipe.harmonics import (
+    compare_method,
+    envelope_modes,
+    excitation_families,
+    method_params,
+)
 
 snakemake = globals()["snakemake"]
 log = io.setup_log(snakemake.log[0])
@@ -14,7 +19,8 @@ done = {}
 for method, method_cfg in p.method_cfg.items():
     # compare_method logs each method's time, peak memory and worst-bin attenuation
     done[method] = compare_method(sweep, random, bench, method,
-                                  method_params({method: method_cfg}, method, families),
+                                  method_params({method: method_cfg}, method, families,
+                                                envelope_modes(bench, p.spectra)),
                                   families, p.spectra)
 for (method, ds), path in zip(done.items(), snakemake.output.nc, strict=True):
     # each file's provenance: the config slice of its own method, as one job per method had

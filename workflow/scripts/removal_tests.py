@@ -4,6 +4,7 @@ record), one file per record and version."""
 
 from gbpipe import io
 from gbpipe.harmonics import (
+    envelope_modes,
     harmonic_record,
     method_params,
     method_residuals,
@@ -36,7 +37,8 @@ for n, ((test, profile), path, twin) in enumerate(
         # part's own content at the orders
         harmonic = harmonic_record(record, random, p.signals)
         for method in p.method_cfg:
-            params = method_params(p.method_cfg, method, families)
+            params = method_params(p.method_cfg, method, families,
+                                   envelope_modes(bench, p.spectra))
             ds = method_residuals(record, p.signals, method, params, families, p.keep_below)
             leftover = method_residuals(harmonic, p.signals, method, params, families,
                                         p.keep_below)

@@ -6,6 +6,9 @@ A removal is useful only if it takes the harmonics down *and* leaves the random
 one point per method and rpm bin at (worst level change over the mode bands, smallest
 family attenuation), with the two targets drawn, so the methods that meet both sit in the
 upper-left corner; the right panel shows the worst level change along the rpm sweep.
+
+:func:`removal_crossing_figure` zooms on the worst order/mode crossing: the mode band's
+power along rpm in the record, its random-only twin and each method's residual.
 """
 
 from __future__ import annotations
@@ -19,8 +22,9 @@ import xarray as xr
 from gbpipe.errors import DataError
 from gbpipe.figures.captions import write_caption
 from gbpipe.figures.style import new, save
+from gbpipe.harmonics.separation import band_power_vs_rpm
 
-__all__ = ["removal_tradeoff_figure"]
+__all__ = ["removal_tradeoff_figure", "removal_crossing_figure", "worst_crossing"]
 
 _MARKERS = ("o", "s", "^", "D", "v", "P", "X", "*")
 # Symlog below this level error [dB]: linear through 0 (a perfect method), log above, so
@@ -169,4 +173,138 @@ def removal_tradeoff_figure(datasets: Mapping[str, xr.Dataset],
                   "attenuation (perfect removal) are clipped to the top of the axis (hollow "
                   "markers). Right: worst level change per rpm bin along the sweep.",
                   {**summary, **caption})
+    return numbers
+
+
+def worst_crossing(datasets: Mapping[str, xr.Dataset]) -> tuple[int, int, bool]:
+    """The mode band and rpm bin of the worst crossing: among the bins where an order
+    lies within a mode's half-power band (``crossing_order``), the one with the largest
+    ``|change_db|`` of any method; without any crossing, the worst mode-band bin.
+
+    Returns
+    -------
+    band, rpm : int
+        Indices into the datasets' ``band`` and ``rpm``.
+    crossed : bool
+        Whether that bin is a crossing.
+    """
+    first = next(iter(datasets.values()))
+    change = np.nanmax(np.stack([np.abs(ds.change_db.transpose("band", "rpm").values)
+                                 for ds in datasets.values()]), axis=0)
+    change[first.band.values == "elsewhere"] = np.nan
+    crossed = np.isfinite(first.crossing_order.transpose("family", "band", "rpm").values
+                          ).any(axis=0)
+    pick = np.where(crossed, change, np.nan) if crossed.any() else change
+    b, i = np.unravel_index(np.nanargmax(pick), pick.shape)
+    return int(b), int(i), bool(crossed.any())
+
+
+def removal_crossing_figure(datasets: Mapping[str, xr.Dataset], record: np.ndarray,
+                            random_only: np.ndarray, fs: float, pulse_times: np.ndarray,
+                            out: Mapping[str, str | os.PathLike], *,
+                            pulses_per_rev: int = 1, resolution: float = 0.5,
+                            fine_bins: int = 15, units: str = "N·m",
+                            tolerance_db: float = 1.0) -> dict[str, float]:
+    """Zoom on the worst crossing: the mode band's power along rpm in the record, in the
+    random-only twin and in each method's residual.
+
+    Parameters
+    ----------
+    datasets : mapping str -> xarray.Dataset
+        Method -> :func:`gbpipe.harmonics.compare_method` output (``residual``,
+        ``change_db``, ``crossing_order``, ``crossing_mode``).
+    record, random_only : numpy.ndarray
+        The sweep's signal and its random-only twin (unit ``units``).
+    fs : float
+        Sample rate [Hz].
+    pulse_times : numpy.ndarray
+        HSS tachometer pulse times of the sweep [s].
+    out : mapping
+        ``png`` and ``caption`` paths (the other formats go beside the PNG).
+    pulses_per_rev : int
+        Tachometer pulses per HSS revolution.
+    resolution : float
+        Resolution of the waterfalls behind the band powers [Hz].
+    fine_bins : int
+        Most rpm bins over the zoom (the worst metric bin and its neighbours); fewer
+        where the sweep crosses the zoom in fewer than two waterfall frames per bin.
+    units : str
+        Unit of the signals, as written in labels.
+    tolerance_db : float
+        The allowed level change [dB], drawn.
+
+    Returns
+    -------
+    dict
+        ``"<method> zoom worst change dB"`` per method (largest ``|change|`` of the fine
+        bins against the random-only twin [dB]), ``"mode Hz"``, ``"order"`` (NaN without a
+        crossing), ``"rpm lower"``/``"rpm upper"`` of the zoom [rev/min].
+    """
+    if not datasets:
+        raise DataError("datasets", "no removal method given")
+    b, i, crossed = worst_crossing(datasets)
+    first = next(iter(datasets.values()))
+    limits = (float(first.band_lower[b]), float(first.band_upper[b]))
+    lo_i, hi_i = max(i - 1, 0), min(i + 1, first.sizes["rpm"] - 1)
+    span = (float(first.rpm_lower[lo_i]), float(first.rpm_upper[hi_i]))
+    # at most one bin per two waterfall frames (hop 1 / (2 resolution) s) in the zoom: a
+    # fast sweep crosses it in a few frames
+    p = np.asarray(pulse_times, dtype=float)
+    rev_rpm = 60.0 / (np.diff(p) * pulses_per_rev)
+    inside = (rev_rpm >= span[0]) & (rev_rpm <= span[1])
+    n_frames = float(np.sum(np.diff(p)[inside])) * 2.0 * resolution
+    edges = np.linspace(*span, int(np.clip(n_frames // 2, 3, fine_bins)) + 1)
+    names = list(datasets)
+    power = band_power_vs_rpm([record, random_only,
+                               *(datasets[m].residual.values for m in names)], fs,
+                              pulse_times, limits, edges, resolution=resolution,
+                              pulses_per_rev=pulses_per_rev)
+    centre = 0.5 * (edges[:-1] + edges[1:])
+    with np.errstate(divide="ignore", invalid="ignore"):
+        level = 10 * np.log10(power)
+    orders = first.crossing_order.transpose("family", "band", "rpm").values[:, b, i]
+    mode_hz = first.crossing_mode.transpose("family", "band", "rpm").values[:, b, i]
+    known = np.isfinite(orders)
+    order = float(orders[known][0]) if known.any() else np.nan
+    mode = float(mode_hz[known][0]) if known.any() else float(np.mean(limits))
+
+    fig, (ax, ax_r) = new(1, 2, figsize=(10.0, 4.4))
+    ax.plot(centre, level[0], color="0.6", lw=2.5, label="record")
+    ax.plot(centre, level[1], color="k", ls="--", lw=1.5, label="random-only")
+    ax_r.axhspan(-tolerance_db, tolerance_db, color="0.9", label=f"±{tolerance_db:g} dB")
+    numbers: dict[str, float] = {"mode Hz": mode, "order": order,
+                                 "rpm lower": float(edges[0]), "rpm upper": float(edges[-1])}
+    caption: dict[str, str] = {}
+    for k, m in enumerate(names):
+        style = dict(color=f"C{k % 10}", marker=_MARKERS[k % len(_MARKERS)], ms=4)
+        ax.plot(centre, level[2 + k], lw=1.2, **style, label=m)
+        change = level[2 + k] - level[1]
+        ax_r.plot(centre, change, lw=1.2, **style, label=m)
+        numbers[f"{m} zoom worst change dB"] = float(np.nanmax(np.abs(change)))
+        caption[m] = f"worst change in the zoom {numbers[f'{m} zoom worst change dB']:.2f} dB"
+    if known.any():  # the speed where the order's frequency is the mode's
+        for a in (ax, ax_r):
+            a.axvline(60.0 * mode / order, color="0.3", lw=0.8, ls=":")
+    ax.set_xlabel("HSS speed [rev/min]")
+    ax.set_ylabel(f"power in {limits[0]:.1f}–{limits[1]:.1f} Hz [dB re ({units})²]")
+    ax.set_title("Mode band along the sweep")
+    ax.legend(loc="best", fontsize=7)
+    ax_r.set_xlabel("HSS speed [rev/min]")
+    ax_r.set_ylabel("level change against random-only [dB]")
+    ax_r.set_title("Residual against the random-only twin")
+    ax_r.legend(loc="best", fontsize=7)
+    save(fig, out["png"])
+    where = (f"order {order:g} through the {mode:.1f} Hz mode at "
+             f"{60.0 * mode / order:.0f} rev/min" if crossed else
+             "no order lies within a mode's half-power band on this sweep: the worst "
+             "mode-band bin instead")
+    write_caption(out["caption"], "Harmonic removal at the worst order/mode crossing",
+                  "extension (harmonic removal at crossings)",
+                  f"Left: power in the {limits[0]:.1f}–{limits[1]:.1f} Hz mode band along "
+                  "the sweep, in the record, in its random-only twin (same seeds, no "
+                  "angle-locked excitation) and in each method's residual, over the worst "
+                  "crossing's rpm bin and its neighbours; right: each residual's level "
+                  f"change against the random-only twin, ±{tolerance_db:g} dB shaded. "
+                  "Dotted: the speed where the order's frequency equals the mode's.",
+                  {"zoom": f"{edges[0]:.0f}–{edges[-1]:.0f} rev/min, {where}", **caption})
     return numbers

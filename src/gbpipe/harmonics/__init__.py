@@ -23,6 +23,8 @@ Removal beyond TSA (issue 16):
 ``removal_inputs``  checked inputs shared by the methods below
 ``vkf``             Vold-Kalman order tracking filter, second generation, joint orders
 ``regression``      angle-domain least-squares regression, slowly varying amplitudes
+                    (and the swept modal response of orders crossing a mode)
+``crossings``       order/mode crossings: half-power bands, swept modal carriers, marks
 ``drs``             discrete/random separation in the angle domain
 ``cepstrum``        cepstral editing: comb liftering of the families' rahmonics
 ``removal``         every method behind one signature (``METHODS``: tsa, vkf, ...)
@@ -48,6 +50,7 @@ from gbpipe.harmonics.comparison import (
     record_separation,
     removal_rows,
 )
+from gbpipe.harmonics.crossings import crossing_marks, half_power_band, modal_carriers
 from gbpipe.harmonics.drs import residual_drs
 from gbpipe.harmonics.families import (
     cycle_orders,
@@ -66,6 +69,7 @@ from gbpipe.harmonics.removal import family_cycles, remove_harmonics, residual_t
 from gbpipe.harmonics.separation import separation_metrics
 from gbpipe.harmonics.spectra import order_spectrum, order_spectrum_vs_rpm, power_spectrum_vs_rpm
 from gbpipe.harmonics.stage import (
+    envelope_modes,
     record_residuals,
     remove,
     split_residuals,
@@ -101,9 +105,10 @@ __all__ = [
     # removal methods beyond TSA, and their exact separation metric
     "REMOVAL_METHODS", "remove_harmonics", "residual_tsa", "residual_vkf",
     "residual_regression", "residual_drs", "residual_cepstrum", "family_cycles",
-    "separation_metrics",
+    "separation_metrics", "modal_carriers", "half_power_band", "crossing_marks",
     # workflow stages
     "remove", "waterfalls", "variant_metrics", "sweep_waterfalls", "tsa_variant",
     "record_residuals", "split_residuals", "compare_method", "method_params",
+    "envelope_modes",
     "method_residuals", "removal_rows", "record_separation", "harmonic_record",
 ]

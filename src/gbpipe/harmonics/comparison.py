@@ -30,10 +30,11 @@ import numpy as np
 import xarray as xr
 
 from gbpipe.errors import DataError
+from gbpipe.harmonics.crossings import crossing_lines
 from gbpipe.harmonics.metrics import Families
 from gbpipe.harmonics.removal import remove_harmonics
 from gbpipe.harmonics.separation import separation_metrics
-from gbpipe.harmonics.stage import split_residuals, watched_modes
+from gbpipe.harmonics.stage import envelope_modes, split_residuals, watched_modes
 from gbpipe.io import measured_signal
 
 __all__ = ["method_params", "compare_method", "removal_rows", "method_residuals",
@@ -42,14 +43,31 @@ __all__ = ["method_params", "compare_method", "removal_rows", "method_residuals"
 log = logging.getLogger(__name__)
 
 
-def method_params(removal_cfg: Mapping[str, Any], method: str,
-                  families: Families) -> dict[str, Any]:
+def method_params(removal_cfg: Mapping[str, Any], method: str, families: Families,
+                  modes: np.ndarray | None = None) -> dict[str, Any]:
     """Keyword arguments of ``method`` from ``cfg["removal"][method]``.
 
     A per-family ``knot_spacing`` of the regression keeps the families at hand (and
-    ``default``): the tests remove fewer families than the sweep.
+    ``default``): the tests remove fewer families than the sweep. The regression's
+    ``modal_envelope`` becomes its ``modes``: ``modes`` (frequency [Hz], damping ratio
+    [-]; :func:`gbpipe.harmonics.envelope_modes` of the bench model), for every family but
+    ``motor`` (``modal_families``).
+
+    Raises
+    ------
+    ValueError
+        ``modal_envelope`` is on and no ``modes`` are given.
     """
     params = dict(removal_cfg[method])
+    if params.pop("modal_envelope", False):
+        if modes is None:
+            raise ValueError("removal.regression.modal_envelope needs the bench modes: "
+                             "pass envelope_modes(bench, spectra) as modes")
+        params["modes"] = np.asarray(modes, dtype=float)
+        # the carrier's one coefficient needs a constant excitation: the gear and shaft
+        # excitation is; the converters' pulsating torque follows the operating point
+        # (on the ramp tests' steps a carrier left 31-34 dB of it, its envelope 43-56 dB)
+        params["modal_families"] = [f for f in families if f != "motor"]
     spacing = params.get("knot_spacing")
     if isinstance(spacing, Mapping):
         params["knot_spacing"] = {k: v for k, v in spacing.items()
@@ -69,7 +87,8 @@ def compare_method(sweep: xr.Dataset, random_only: xr.Dataset, bench: xr.Dataset
         (``spec["signal"]``, ``pulse_time`` [s], attributes ``sample_rate``,
         ``pulses_per_rev``); the pulses of ``sweep`` are used for both.
     bench : xarray.Dataset
-        The bench model output (``closed_mode_frequency`` [Hz]): the modes to watch.
+        The bench model output (``closed_mode_frequency`` [Hz], ``closed_mode_damping``
+        [-]): the modes to watch and their half-power bands.
     method : str
         A name of :data:`gbpipe.harmonics.removal.METHODS`.
     params : mapping
@@ -83,7 +102,9 @@ def compare_method(sweep: xr.Dataset, random_only: xr.Dataset, bench: xr.Dataset
     Returns
     -------
     xarray.Dataset
-        :func:`gbpipe.harmonics.separation_metrics` (with ``leftover_db``), the residual
+        :func:`gbpipe.harmonics.separation_metrics` (with ``leftover_db``),
+        ``crossing_order`` [HSS orders] and ``crossing_mode`` [Hz] (family, band, rpm:
+        :func:`gbpipe.harmonics.crossings.crossing_lines`), the residual
         (time) in the unit of the signal, and attributes ``method``, ``params``,
         ``families`` and ``signal``. The method's wall time [s] and traced peak memory
         [MB] go to the log, not into the result: the same config gives the same file.
@@ -121,6 +142,15 @@ def compare_method(sweep: xr.Dataset, random_only: xr.Dataset, bench: xr.Dataset
                             half_width=spec["mode_half_width"],
                             f_max=spec["max_frequency"], pulses_per_rev=ppr,
                             harmonic_residual=rh)
+    # the bins where an order lies within a mode's half-power band: order and mode
+    order, mode = crossing_lines(families, ds.rpm_lower.values, ds.rpm_upper.values,
+                                 envelope_modes(bench, spec),
+                                 np.column_stack([ds.band_lower.values, ds.band_upper.values]))
+    dims = ("family", "band", "rpm")
+    ds["crossing_order"] = (dims, order, {"units": "1", "long_name": "order of the family "
+                                          "within the half-power band of a mode of the band"})
+    ds["crossing_mode"] = (dims, mode, {"units": "Hz", "long_name": "frequency of the mode "
+                                        "whose half-power band the order crosses"})
     ds["residual"] = ("time", r, {"units": sig.attrs["units"],
                                   "long_name": f"{method} residual of {sig.attrs['long_name']}"})
     ds = ds.assign_coords(time=sweep.time)
@@ -147,8 +177,11 @@ def removal_rows(datasets: Sequence[xr.Dataset]) -> list[dict[str, Any]]:
     test), ``band_lower``, ``band_upper`` [Hz], ``attenuation_db`` (of the family, against
     the harmonic part), ``leftover_db`` (the method on the harmonic part alone),
     ``distortion_db`` and ``change_db`` (the band, against the random-only record)
-    [dB], ``crossing`` (1 where an order of the family passes through the band).
-    ``leftover_db`` is empty (NaN) where a dataset has none.
+    [dB], ``crossing`` (1 where an order of the family passes through the band),
+    ``crossing_order`` [HSS orders] and ``crossing_mode`` [Hz] (the order of the family
+    within the half-power band ``f_n (1 +- zeta)`` of a bench mode of the band, and that
+    mode; NaN where none, and on a test). ``leftover_db`` is empty (NaN) where a dataset
+    has none.
     """
     rows = []
     for ds in datasets:
@@ -165,6 +198,10 @@ def removal_rows(datasets: Sequence[xr.Dataset]) -> list[dict[str, Any]]:
             dist = one.distortion_db.transpose("band", "rpm").values
             change = one.change_db.transpose("band", "rpm").values
             cross = one.crossing.transpose("family", "band", "rpm").values
+            nan3 = np.full(cross.shape, np.nan)
+            c_order, c_mode = ((one[v].transpose("family", "band", "rpm").values
+                                if v in one else nan3)
+                               for v in ("crossing_order", "crossing_mode"))
             for k, fam in enumerate(one.family.values):
                 for i in range(n_bins):
                     rpm = ([""] * 3 if test else
@@ -181,6 +218,8 @@ def removal_rows(datasets: Sequence[xr.Dataset]) -> list[dict[str, Any]]:
                             "distortion_db": float(dist[b, i]),
                             "change_db": float(change[b, i]),
                             "crossing": int(cross[k, b, i]),
+                            "crossing_order": float(c_order[k, b, i]),
+                            "crossing_mode": float(c_mode[k, b, i]),
                         })
     return rows
 

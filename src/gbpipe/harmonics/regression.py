@@ -18,11 +18,17 @@ and solved by banded Cholesky: memory linear in the record, independent of its l
 for the matrix. Estimating all families at once, unlike a cascade, leaves no family's
 leakage in another's estimate; orders closer than about ``1 / (revolutions per knot
 interval)`` are told apart only through the joint fit, at the cost of noise gain.
+
+Where an order crosses a structural mode, its line is the excitation times the mode's
+FRF along the order's frequency; with ``modes`` the regressors also hold that swept
+modal response (:mod:`gbpipe.harmonics.crossings`), with one global coefficient per
+order and mode: a dense border of the banded normal equations, eliminated by its Schur
+complement.
 """
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Collection, Mapping, Sequence
 from typing import Literal
 
 import numpy as np
@@ -30,10 +36,14 @@ from scipy.interpolate import BSpline
 from scipy.linalg import cho_solve_banded, cholesky_banded
 
 from gbpipe.harmonics.checks import as_count, as_positive, as_signal
+from gbpipe.harmonics.crossings import as_modes, crossing_pairs, modal_carriers
 from gbpipe.harmonics.removal_inputs import Families, removal_inputs
 from gbpipe.harmonics.tacho import AngleMethod
 
 __all__ = ["AmplitudeBasis", "family_groups", "residual_regression"]
+
+#: Tikhonov weight of each modal carrier's coefficient, relative to the carrier's power
+BORDER_RIDGE = 1e-6
 
 
 class AmplitudeBasis:
@@ -117,6 +127,11 @@ def _local_design(basis: AmplitudeBasis, t: np.ndarray, phases: np.ndarray,
     return design, first * trig.shape[1]
 
 
+def _border_design(carriers: np.ndarray) -> np.ndarray:
+    """Border columns of one block: real and imaginary part of each modal carrier."""
+    return np.stack([carriers.real, carriers.imag], axis=2).reshape(carriers.shape[0], -1)
+
+
 def family_groups(families: Families, spacing: Mapping[str, float]
                   ) -> list[tuple[float, dict]]:
     """Families grouped by their knot spacing [s], finest first.
@@ -147,6 +162,9 @@ def residual_regression(x: np.ndarray, fs: float, pulse_times: np.ndarray,
                         basis: Literal["bspline", "legendre"] = "bspline",
                         knot_spacing: float | Mapping[str, float] = 1.0, degree: int = 3,
                         ridge: float = 1e-10,
+                        modes: Sequence[Sequence[float]] | None = None,
+                        mode_reach: float = 3.0,
+                        modal_families: Collection[str] | None = None,
                         block: int = 8192, t0: float = 0.0,
                         method: AngleMethod = "pchip") -> np.ndarray:
     """Remove order families by joint least-squares regression on the shaft angle.
@@ -172,6 +190,24 @@ def residual_regression(x: np.ndarray, fs: float, pulse_times: np.ndarray,
     ridge : float
         Tikhonov term, relative to the mean diagonal of the normal matrix [-]: keeps
         near-coincident orders solvable without changing well-separated ones.
+    modes : array_like, shape (modes, 2), optional
+        Frequency [Hz] and damping ratio [-] of the structural modes (closed-loop bench
+        modes, :func:`gbpipe.harmonics.envelope_modes`). Every order that comes within
+        ``mode_reach`` half-power half widths of a mode is also fitted with the mode's
+        swept response to it (:func:`gbpipe.harmonics.modal_carriers`), one complex
+        coefficient over the record: at a crossing the line rings with the mode on the
+        mode's time constant, which a slow envelope cannot follow and fine knots follow
+        only by taking the mode's broadband response too (docs/removal.md, "Crossings").
+        With a per-family ``knot_spacing`` the groups are fitted one after the other and
+        a group's carriers meet the later groups' lines unfitted: give carriers
+        (``modal_families``) only to the families of the last group.
+    mode_reach : float
+        Half-power half widths ``zeta f_n`` within which an order counts as near a mode [-].
+    modal_families : collection of str, optional
+        The families whose orders get modal carriers (default: all). The carrier's one
+        coefficient assumes the family's excitation constant over the record: a family
+        whose excitation follows the operating point (the converters' pulsating torque on
+        ramp tests with steps) is fitted better by its envelope alone.
     block : int
         Samples per block of the normal-equation accumulation (memory per block).
 
@@ -188,22 +224,25 @@ def residual_regression(x: np.ndarray, fs: float, pulse_times: np.ndarray,
     DataError
         A channel with NaN/inf samples (named ``x[:, j]``), and the errors of the pulses.
     ValueError
-        Unknown basis, or non-positive knot spacing or ridge.
+        Unknown basis, non-positive knot spacing, ridge or mode reach, or modes that are
+        not (frequency > 0, 0 < damping ratio < 1) pairs.
     """
     if isinstance(knot_spacing, Mapping):
         out = np.asarray(x, dtype=float)
         for spacing, group in family_groups(families, knot_spacing):
             out = residual_regression(out, fs, pulse_times, group, pulses_per_rev,
                                       basis=basis, knot_spacing=spacing, degree=degree,
-                                      ridge=ridge, block=block, t0=t0, method=method)
+                                      ridge=ridge, modes=modes, mode_reach=mode_reach,
+                                      modal_families=modal_families,
+                                      block=block, t0=t0, method=method)
         return out
     xa = np.asarray(x, dtype=float)
     multi = xa.ndim == 2
     if multi:  # every channel checked; the first one carries the angle map's checks
         for j in range(xa.shape[1]):
             as_signal(xa[:, j], f"x[:, {j}]")
-    rec, _, orders = removal_inputs(xa[:, 0] if multi else xa, fs, pulse_times, families,
-                                    pulses_per_rev, t0, method)
+    rec, fam, orders = removal_inputs(xa[:, 0] if multi else xa, fs, pulse_times, families,
+                                      pulses_per_rev, t0, method)
     knot_spacing = as_positive(knot_spacing, "knot_spacing", "s")
     ridge = as_positive(ridge, "ridge", "relative units")
     degree = as_count(degree, "degree")
@@ -214,29 +253,68 @@ def residual_regression(x: np.ndarray, fs: float, pulse_times: np.ndarray,
     # matrix and its factor are built once, and only the right-hand sides are per channel
     xs = xa if multi else xa[:, None]
     y = xs[rec.span]
+    pairs: list[tuple[int, int]] = []
+    m = np.empty((0, 2))
+    if modes is not None and len(modes):  # the swept modal response of orders near a mode
+        m = as_modes(modes)
+        mode_reach = as_positive(mode_reach, "mode_reach", "half-power half widths")
+        rate = np.diff(rec.theta) * fs / (2 * np.pi)  # shaft rate [rev/s]
+        carried = np.concatenate([np.full(o.size, modal_families is None
+                                          or name in modal_families)
+                                  for name, o in fam.items()])
+        pairs = [(k, j) for k, j in crossing_pairs(
+            orders, (float(rate.min()), float(rate.max())), m, mode_reach) if carried[k]]
     per_function = 2 * orders.size + 1
     n_unknown = amp.size * per_function
     width = amp.support * per_function  # columns touched by one block
     ab = np.zeros((width, n_unknown))
     rhs = np.zeros((n_unknown, xs.shape[1]))
+    # the modal carriers' coefficients are global (the mode's residue times the order's
+    # excitation, which the carrier's ring-up pins down where it crosses the mode): a
+    # dense border of the banded normal matrix
+    n_border = 2 * len(pairs)
+    cross_nb = np.zeros((n_unknown, n_border))
+    gram_b = np.zeros((n_border, n_border))
+    rhs_b = np.zeros((n_border, xs.shape[1]))
     cuts = _blocks(times, amp.breaks, block)
     # the lower triangle of a local normal matrix, entry (i, j) -> lower band storage
     # (i - j, first column + j), in one indexed addition per block
     low_i, low_j = np.tril_indices(width)
     band_row = low_i - low_j
+    carriers = modal_carriers(rec.theta, fs, orders, m, pairs, cuts)
     for a, b in zip(cuts[:-1], cuts[1:], strict=True):  # blocks: memory per block only
         design, c0 = _local_design(amp, times[a:b], np.outer(rec.theta[a:b], orders))
         gram = design.T @ design
         ab[band_row, c0 + low_j] += gram[low_i, low_j]
         rhs[c0:c0 + width] += design.T @ y[a:b]
+        if n_border:
+            border = _border_design(next(carriers))
+            cross_nb[c0:c0 + width] += design.T @ border
+            gram_b += border.T @ border
+            rhs_b += border.T @ y[a:b]
     ab[0] += ridge * float(np.mean(ab[0]))
     # finite by construction (checked signals and angles): no input scans
-    coef = cho_solve_banded((cholesky_banded(ab, lower=True, check_finite=False), True),
-                            rhs, check_finite=False)
+    factor = (cholesky_banded(ab, lower=True, check_finite=False), True)
+    coef = cho_solve_banded(factor, rhs, check_finite=False)
+    coef_b = np.zeros((n_border, xs.shape[1]))
+    if n_border:  # block elimination: the border's Schur complement, then the band
+        a_inv_c = cho_solve_banded(factor, cross_nb, check_finite=False)
+        schur = gram_b - cross_nb.T @ a_inv_c
+        # a carrier far from its mode is almost a slow envelope times the order's phasor,
+        # which the band already holds: the Schur complement cancels to rounding there,
+        # and a coefficient set by rounding adds power. Its part the band cannot explain
+        # is weighted against BORDER_RIDGE of its own power (-60 dB: what a carrier
+        # adds below that is no resonance)
+        schur[np.diag_indices(n_border)] += BORDER_RIDGE * np.diag(gram_b)
+        coef_b = np.linalg.solve(schur, rhs_b - cross_nb.T @ coef)
+        coef -= a_inv_c @ coef_b
     coef[::per_function] = 0.0  # the slow mean is fitted, never subtracted
     out = xs.copy()
     seg = out[rec.span]
+    carriers = modal_carriers(rec.theta, fs, orders, m, pairs, cuts)  # again, from the start
     for a, b in zip(cuts[:-1], cuts[1:], strict=True):
         design, c0 = _local_design(amp, times[a:b], np.outer(rec.theta[a:b], orders))
         seg[a:b] -= design @ coef[c0:c0 + width]
+        if n_border:
+            seg[a:b] -= _border_design(next(carriers)) @ coef_b
     return out if multi else out[:, 0]

@@ -40,7 +40,7 @@ from gbpipe.harmonics.removal_inputs import family_orders_checked, record_angle
 from gbpipe.harmonics.spectra import power_spectrum_vs_rpm
 from gbpipe.harmonics.tacho import AngleMethod
 
-__all__ = ["frequency_bands", "separation_metrics"]
+__all__ = ["frequency_bands", "separation_metrics", "band_power_vs_rpm"]
 
 
 def frequency_bands(modes: Sequence[float], half_width: float, f_min: float,
@@ -210,3 +210,41 @@ def separation_metrics(
         },
         coords=coords,
     )
+
+
+def band_power_vs_rpm(signals: Sequence[np.ndarray], fs: float, pulse_times: np.ndarray,
+                      limits: tuple[float, float], rpm_edges: np.ndarray, *,
+                      resolution: float = 0.5, pulses_per_rev: int = 1) -> np.ndarray:
+    """Power of each signal within one frequency band, per rpm bin.
+
+    Parameters
+    ----------
+    signals : sequence of array_like, shape (n,)
+        Signals of one record (one unit).
+    fs : float
+        Sample rate [Hz].
+    pulse_times : array_like
+        HSS tachometer pulse times [s].
+    limits : tuple of float
+        Lower and upper limit of the band [Hz].
+    rpm_edges : array_like
+        Bin edges [rev/min].
+    resolution : float
+        Resolution of the waterfall behind the band power [Hz].
+    pulses_per_rev : int
+        Tachometer pulses per HSS revolution.
+
+    Returns
+    -------
+    numpy.ndarray, shape (signals, bins)
+        Band power [signal unit squared], NaN in a bin no frame falls in.
+    """
+    kw = dict(pulse_times=pulse_times, resolution=resolution, rpm_bins=rpm_edges,
+              max_frequency=min(2.0 * limits[1], 0.5 * fs), pulses_per_rev=pulses_per_rev)
+    out = []
+    for x in signals:
+        wf = power_spectrum_vs_rpm(as_signal(x, "signal"), fs, **kw)
+        p = _band_power(wf.power.values, wf.frequency.values,
+                        np.array([limits, [limits[0], limits[1]]]))[:, 0]
+        out.append(np.where(wf.n_averages.values > 0, p, np.nan))
+    return np.array(out)

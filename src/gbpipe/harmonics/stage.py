@@ -38,7 +38,8 @@ from gbpipe.harmonics.tsa import residual
 from gbpipe.io import longest_segment, mean_shaft_frequency, measured_signal
 
 __all__ = ["waterfalls", "remove", "variant_metrics", "sweep_waterfalls", "tsa_variant",
-           "split_residuals", "record_residuals", "watched_modes", "MODE_MIN_FREQUENCY"]
+           "split_residuals", "record_residuals", "watched_modes", "envelope_modes",
+           "MODE_MIN_FREQUENCY"]
 
 log = logging.getLogger(__name__)
 
@@ -54,6 +55,23 @@ def watched_modes(bench: xr.Dataset, spec: Mapping[str, Any]) -> np.ndarray:
     (:func:`gbpipe.harmonics.structural_modes`)."""
     return structural_modes(bench.closed_mode_frequency.values, MODE_MIN_FREQUENCY,
                             spec["mode_max_frequency"], spec["mode_half_width"])
+
+
+def envelope_modes(bench: xr.Dataset, spec: Mapping[str, Any]) -> np.ndarray:
+    """The bench modes whose swept response the regression's modal envelope carries:
+    every closed-loop mode of ``bench.nc`` between :data:`MODE_MIN_FREQUENCY` and
+    ``spec["mode_max_frequency"]``, each pole of a close pair on its own (the regression
+    needs the resonances, not the watched bands).
+
+    Returns
+    -------
+    numpy.ndarray, shape (modes, 2)
+        Frequency [Hz] and damping ratio [-] of each mode.
+    """
+    f = bench.closed_mode_frequency.values
+    z = bench.closed_mode_damping.values
+    keep = (f > MODE_MIN_FREQUENCY) & (f < spec["mode_max_frequency"])
+    return np.column_stack([f[keep], z[keep]])
 
 
 def waterfalls(x: np.ndarray, fs: float, pulse_times: np.ndarray, spec: Mapping[str, Any],

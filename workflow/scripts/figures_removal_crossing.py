@@ -1,0 +1,21 @@
+"""Rule `figures_removal_crossing`: the mode band at the worst order/mode crossing, in the
+record, its random-only twin and every method's residual."""
+
+from gbpipe import io
+from gbpipe.figures.removal_plots import removal_crossing_figure
+from gbpipe.figures.style import formats
+
+snakemake = globals()["snakemake"]
+log = io.setup_log(snakemake.log[0])
+p, i = snakemake.params, snakemake.input
+datasets = {m: io.read(path) for m, path in zip(p.methods, i.methods, strict=True)}
+sweep, random = io.read(i.sweep), io.read(i.random)
+sig = sweep[p.signal]  # spectra.signal, as rule removal reads it
+out = {"png": snakemake.output.removal_crossing_png,
+       "caption": snakemake.output.removal_crossing_caption}
+with formats(p.formats):  # config figures.formats
+    numbers = removal_crossing_figure(
+        datasets, sig.values, random[p.signal].values,
+        float(sweep.attrs["sample_rate"]), sweep.pulse_time.values, out,
+        pulses_per_rev=int(sweep.attrs["pulses_per_rev"]), units=sig.attrs["units"])
+log.info("removal at the worst crossing: %s", numbers)
