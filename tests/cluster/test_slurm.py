@@ -9,7 +9,9 @@ rule, on its first attempt, having asked for its rule's declared memory
 (values, dims, names; attributes such as the creation time differ by nature).
 
 The study of config/examples/study.yaml (four gearboxes and benches, one results folder
-each) runs the same way and must equal its local run (``study_run``).
+each) runs the same way and must equal its local run (``study_run``). Both SLURM runs (and
+those of test_slurm_retries.py) are started together by the ``slurm_runs`` fixture
+(conftest.py); their jobs are told apart by their working directory.
 """
 
 from __future__ import annotations
@@ -19,11 +21,11 @@ import sys
 from collections import Counter
 from pathlib import Path
 
+import pytest
 import xarray as xr
-from slurm_runs import MEMORY, last_job_id, slurm_jobs, snakemake_on_slurm
+from slurm_runs import MEMORY, slurm_jobs
 
-from tests.conftest import ROOT, STUDY_CONFIGS, study_targets
-from tests.workflow.runs import copy_repo, snakemake_env
+from tests.conftest import ROOT
 
 sys.path.insert(0, str(ROOT / "workflow" / "lib"))
 import jobresources  # noqa: E402  (the workflow's own helpers)
@@ -71,25 +73,23 @@ def _assert_same_results(local: Path, remote: Path, tables: str, min_netcdf: int
             xr.testing.assert_equal(b, a)
 
 
+@pytest.mark.slurm_runs("ci")
 def test_ci_workflow_on_slurm_runs_every_job_as_slurm_job_and_matches_local_run(
-        slurm, ci_run, tmp_path_factory):
-    work = copy_repo(tmp_path_factory.mktemp("slurm_run"))
-    before = last_job_id(slurm)
-    proc = snakemake_on_slurm(slurm, work, snakemake_env(work), "--configfile",
-                              "config/ci.yaml")
-    jobs = list(slurm_jobs(slurm, after=before).values())
-    _assert_jobs_as_planned_and_declared(jobs, proc.stdout + proc.stderr, lambda r: r)
-    _assert_same_results(ci_run, work, "tables/*.csv", min_netcdf=20)
+        slurm_runs, slurm, ci_run):
+    run = slurm_runs["ci"]
+    log = run.result()
+    jobs = list(slurm_jobs(slurm, run.work).values())
+    _assert_jobs_as_planned_and_declared(jobs, log, lambda r: r)
+    _assert_same_results(ci_run, run.work, "tables/*.csv", min_netcdf=20)
 
 
+@pytest.mark.slurm_runs("study")
 def test_a_study_of_four_gearboxes_on_slurm_matches_its_local_run(
-        slurm, study_run, tmp_path_factory):
+        slurm_runs, slurm, study_run):
     local, _ = study_run
-    work = copy_repo(tmp_path_factory.mktemp("slurm_study"))
-    before = last_job_id(slurm)
-    proc = snakemake_on_slurm(slurm, work, snakemake_env(work), "--configfile",
-                              *STUDY_CONFIGS, "--", *study_targets())
-    jobs = list(slurm_jobs(slurm, after=before).values())
+    run = slurm_runs["study"]
+    log = run.result()
+    jobs = list(slurm_jobs(slurm, run.work).values())
     runs = sorted(p.name for p in (local / "results").iterdir())
     assert len(runs) == 4
 
@@ -97,7 +97,7 @@ def test_a_study_of_four_gearboxes_on_slurm_matches_its_local_run(
         run = next(r for r in runs if name.startswith(f"{r}_"))
         return name.removeprefix(f"{run}_")
 
-    _assert_jobs_as_planned_and_declared(jobs, proc.stdout + proc.stderr, rule_of)
+    _assert_jobs_as_planned_and_declared(jobs, log, rule_of)
     assert {j["rule"] for j in jobs} == {f"{r}_{x}" for r in runs
                                          for x in ("kinematics", "model", "figures_model")}
-    _assert_same_results(local, work, "*/tables/*.csv", min_netcdf=16)
+    _assert_same_results(local, run.work, "*/tables/*.csv", min_netcdf=16)

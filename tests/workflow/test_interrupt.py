@@ -1,19 +1,21 @@
 """A run killed with SIGKILL, then resumed as the README says, gives the results of an
 uninterrupted run, and leaves no temporaries behind.
 
-The CI workflow is started in a fresh copy; once an ``identify`` job is working (its log
-holds its first record; each takes ~15 s) the whole process group (Snakemake and its
-jobs) gets SIGKILL:
-no handler runs,
-the lock and any half-written temporary stay. One more temporary, as a job killed while
-writing leaves it, is planted so the clean-up is always exercised. Then the README's
-recovery: ``snakemake --unlock``, then ``snakemake --rerun-incomplete``. Every NetCDF
-output must equal the uninterrupted run's (``ci_run``), every CSV table byte for byte.
+The run is as small as the claim needs: a copy of the complete CI run (``ci_run``, its
+files' times and Snakemake's records kept) without one record's identification (its
+``identify`` outputs and log) and the identification table, so that ``snakemake`` plans
+that record's identify job and what depends on it. Once the job is working (its log holds
+its first record) the whole process group (Snakemake and its jobs) gets SIGKILL: no
+handler runs, the lock and any half-written temporary stay. One more temporary, as a job
+killed while writing leaves it, is planted so the clean-up is always exercised. Then the
+README's recovery: ``snakemake --unlock``, then ``snakemake --rerun-incomplete``. Every
+NetCDF output must equal the uninterrupted run's, every CSV table byte for byte.
 """
 
 from __future__ import annotations
 
 import os
+import shutil
 import signal
 import time
 from pathlib import Path
@@ -21,11 +23,21 @@ from pathlib import Path
 import xarray as xr
 
 from gbpipe import io
-from tests.workflow.runs import copy_repo, snakemake, start_snakemake
+from tests.workflow.runs import snakemake, start_snakemake
 
 #: Seconds to wait for the job to start: only a hang gets near it (the whole CI run takes
-#: about two minutes on 2 idle cores).
+#: under a minute on 2 idle cores).
 _START_TIMEOUT = 1800.0
+
+
+def _identification_of_one_record(run: Path) -> tuple[str, list[Path]]:
+    """What the copy of the complete run loses: one record's identification results and
+    its log (its log holding a record is the sign that the new run's job is working), and
+    the identification table; and the log's path relative to ``run``."""
+    log = sorted((run / "results" / "logs" / "identify").glob("*.log"))[0]
+    files = [*(run / "results" / "identify").glob(f"{log.stem}_*.nc"), log,
+             run / "results" / "tables" / "identification.csv"]
+    return str(log.relative_to(run)), files
 
 
 def _kill_when_running(work: Path, log: Path, markers: str) -> None:
@@ -49,9 +61,13 @@ def _files(root: Path, pattern: str) -> list[Path]:
     return sorted(p.relative_to(root) for p in (root / "results").rglob(pattern))
 
 
-def test_killed_run_resumes_to_identical_results(ci_run, tmp_path_factory):
-    work = copy_repo(tmp_path_factory.mktemp("killed"))
-    _kill_when_running(work, work.parent / "killed.log", "results/logs/identify/*.log")
+def test_killed_run_resumes_to_identical_results(ci_run, tmp_path):
+    work = shutil.copytree(ci_run, tmp_path / "killed", symlinks=True)
+    marker, removed = _identification_of_one_record(work)
+    assert len(removed) >= 3   # a file per method, the log and the table
+    for path in removed:
+        path.unlink()
+    _kill_when_running(work, tmp_path / "killed.log", marker)
     assert not (work / "results" / "tables" / "identification.csv").exists()
     # what a job killed inside gbpipe.io.atomic_path leaves (hidden, recognisable name)
     planted = work / "results" / "simulate" / ".speed_up_square.nc.x1y2z3.gbpipe.tmp"
@@ -62,6 +78,8 @@ def test_killed_run_resumes_to_identical_results(ci_run, tmp_path_factory):
     assert locked.returncode != 0 and "lock" in (locked.stdout + locked.stderr).lower()
     snakemake(work, "--unlock")
     snakemake(work, "--rerun-incomplete")
+    # the resumed run made the identification again (not left the copy as it was)
+    assert all(p.exists() for p in removed)
 
     assert not planted.exists()
     assert _files(work, "*.tmp") == []
