@@ -36,12 +36,23 @@ With ``--crossings`` it runs, instead of the default sweep, the crossing sweeps
 (``CROSSING_RANGES`` x ``CROSSING_RATES`` x ``CROSSING_SEEDS``): per method and sweep the
 worst mode-band level change in a bin where a removed order lies within the half-power
 band of a bench mode of that band (``crossing_marks``), the worst anywhere, the worst-bin
-leftover per family, CPU time and traced peak; then the worst over all sweeps.
+leftover per family, CPU time and traced peak; then the worst over all sweeps. Each
+sweep line also prints the largest change of the twist between the two HSS ends (GB2 HSS
+angle minus GB1 HSS angle, the time integral of the two clean HSS speeds' difference)
+after the settle, and the rms error of the tachometer angle against the simulation's true
+GB1 HSS angle within 0.6 s of the ramp's start and elsewhere: the lines of gearbox 2 and
+of the driver motor are locked to the GB2 HSS angle, the tachometer sits on the GB1 HSS,
+and during the speed loop's transient at the start of the ramp their phase against the
+tachometer angle moves by ``order x twist``.
+``--gearboxes gb1`` runs the crossing sweeps with the excitation of gearbox 1 alone
+(every gearbox line then locked to the tachometer's shaft; the converters' pulsating
+torque as configured): what the removal reads when each gearbox line is referred to its
+own shaft's angle.
 
 Run::
 
     OMP_NUM_THREADS=1 python benchmarks/removal.py [--peer /tmp/peer] [--methods vkf ...]
-    OMP_NUM_THREADS=1 python benchmarks/removal.py --crossings
+    OMP_NUM_THREADS=1 python benchmarks/removal.py --crossings [--gearboxes gb1]
 """
 
 from __future__ import annotations
@@ -62,6 +73,7 @@ from gbpipe.harmonics import (
     crossing_marks,
     excitation_families,
     method_params,
+    shaft_angle,
     shaft_speed,
     structural_modes,
 )
@@ -75,8 +87,9 @@ from gbpipe.units import RPM_PER_RAD_S
 
 ROOT = Path(__file__).resolve().parents[1]
 
-def records(cfg: dict) -> tuple[np.ndarray, np.ndarray, np.ndarray, float, np.ndarray]:
-    """Full and random-only sweep signal, pulses, sample rate; checks the seeds."""
+def records(cfg: dict) -> tuple[np.ndarray, np.ndarray, np.ndarray, float, dict]:
+    """Full and random-only sweep signal, pulses, sample rate, and the angle figures
+    (:func:`angle_figures`); checks the seeds."""
     full = sweep(cfg)
     rnd = sweep(random_only(cfg))
     sig = cfg["spectra"]["signal"]
@@ -86,8 +99,28 @@ def records(cfg: dict) -> tuple[np.ndarray, np.ndarray, np.ndarray, float, np.nd
     dp = np.abs(full.pulse_time.values - rnd.pulse_time.values).max()
     print(f"pulse times of the two runs differ by at most {dp * 1e6:.3f} us")
     x = full[sig].values.astype(float)
-    return x, rnd[sig].values.astype(float), full.pulse_time.values, float(
-        full.attrs["sample_rate"]), full.time.values
+    fs = float(full.attrs["sample_rate"])
+    return x, rnd[sig].values.astype(float), full.pulse_time.values, fs, angle_figures(
+        full, float(cfg["sweep"]["settle"]))
+
+
+def angle_figures(full, settle: float) -> dict:
+    """The largest change of the GB2-to-GB1 HSS twist after the settle (time integral of
+    the clean HSS speeds' difference) [rad], and the rms error of the tachometer angle
+    (``pchip`` through the pulses, as the removal) against the simulation's true GB1 HSS
+    angle within 0.6 s of the settle's end and elsewhere [rad]."""
+    fs = float(full.attrs["sample_rate"])
+    t = full.time.values
+    twist = np.cumsum(full.speed_gb2_hss.values - full.speed_gb1_hss.values) / fs
+    p = full.pulse_time.values
+    inside = (t > p[0]) & (t < p[-1])
+    true = full.angle_gb1_hss.values[inside]
+    err = shaft_angle(t[inside], p) - (true - np.interp(p[0], t[inside], true))
+    err -= err.mean()
+    kink = np.abs(t[inside] - settle) < 0.6
+    return {"twist": float(np.ptp(twist[int(round(settle * fs)):])),
+            "angle_kink": float(np.sqrt(np.mean(err[kink] ** 2))),
+            "angle_rest": float(np.sqrt(np.mean(err[~kink] ** 2)))}
 
 
 def timed(fn, *args, **kwargs) -> tuple[np.ndarray, tuple[float, float]]:
@@ -180,7 +213,7 @@ def score_sweep(cfg: dict, methods: list[str]) -> dict:
     keep = (freq > MODE_MIN_FREQUENCY) & (freq < spec["mode_max_frequency"])
     fz = np.column_stack([freq[keep], zeta[keep]])
     params = {m: method_params(cfg["removal"], m, families, fz) for m in METHODS}
-    x, n, pulses, fs, _ = records_quiet(cfg)
+    x, n, pulses, fs, angles = records_quiet(cfg)
     h = x - n
     watch = structural_modes(freq, MODE_MIN_FREQUENCY, spec["mode_max_frequency"],
                              spec["mode_half_width"])
@@ -201,7 +234,7 @@ def score_sweep(cfg: dict, methods: list[str]) -> dict:
                      "change": float(np.nanmax(change[:-1])),
                      "leftover": {str(f): float(v) for f, v in zip(
                          ds.family.values, ds.leftover_db.min("rpm").values, strict=True)},
-                     "cpu": dt[1], "wall": dt[0], "peak": peak}
+                     "cpu": dt[1], "wall": dt[0], "peak": peak, **angles}
     return out
 
 
@@ -209,6 +242,13 @@ def records_quiet(cfg: dict) -> tuple:
     """:func:`records` without its print (the crossing sweeps print one line each)."""
     with contextlib.redirect_stdout(io.StringIO()):
         return records(cfg)
+
+
+def tacho_gearbox_only(cfg: dict) -> dict:
+    """``cfg`` with the excitation of gearbox 1 alone (the tachometer's): every gearbox
+    line locked to the tachometer's shaft (the converters' pulsating torque as
+    configured)."""
+    return {**cfg, "excitation": {**cfg["excitation"], "gearboxes": ["gb1"]}}
 
 
 def crossings(cfg: dict, methods: list[str]) -> None:
@@ -225,7 +265,10 @@ def crossings(cfg: dict, methods: list[str]) -> None:
         for name, v in score_sweep(c, methods).items():
             print(f"{label:>24} {name:>10} {v['cross']:10.2f} {v['change']:8.2f} "
                   f"{v['cpu']:7.1f} {v['peak'] / 1e6:9.0f}  {v['where']}; " + ", ".join(
-                      f"{f} {d:.1f}" for f, d in v["leftover"].items()), flush=True)
+                      f"{f} {d:.1f}" for f, d in v["leftover"].items())
+                  + f"; HSS twist change {v['twist'] * 1e3:.1f} mrad; tachometer angle "
+                  f"error {v['angle_kink'] * 1e6:.0f} urad rms at the ramp's start, "
+                  f"{v['angle_rest'] * 1e6:.0f} elsewhere", flush=True)
             w = worst.setdefault(name, {"cross": 0.0, "change": 0.0, "cpu": 0.0,
                                         "peak": 0.0, "leftover": {}})
             w["cross"] = max(w["cross"], v["cross"])
@@ -253,12 +296,16 @@ def main() -> None:
     ap.add_argument("--peer", default=None, help="directory holding rota-order (GPL)")
     ap.add_argument("--crossings", action="store_true",
                     help="the crossing sweeps (CROSSING_RANGES x RATES x SEEDS) instead")
+    ap.add_argument("--gearboxes", choices=["both", "gb1"], default="both",
+                    help="crossing sweeps: gb1 = excitation of the tachometer's gearbox "
+                         "alone")
     ap.add_argument("--peer-bandwidth", type=float, default=1.0,
                     help="rota-order VKF bandwidth [Hz] (doubled once if it refuses)")
     args = ap.parse_args()
     cfg = load(args.config)
     if args.crossings:
-        crossings(cfg, args.methods)
+        crossings(tacho_gearbox_only(cfg) if args.gearboxes == "gb1" else cfg,
+                  args.methods)
         return
     spec = cfg["spectra"]
     families = excitation_families(cfg)
