@@ -105,6 +105,11 @@ def check_campaign(cfg: Mapping[str, Any]) -> None:
         chain = build_chain(cfg["drivetrain"])
         chain_loops(chain)
         chain_ripple(cfg, chain)
+        other = [v for v in cfg["identify"]["versions"] if v not in ("clean", "raw")]
+        if other and not cfg["measured"]:
+            raise ConfigError("identify.versions", f"{other}: TSA and harmonic removal are "
+                              "the paper gearbox's (its orders and tachometer); a simulated "
+                              "drivetrain's campaign identifies 'clean' and 'raw'")
     else:
         _check_paper_ripple(cfg["noise"], "noise")
         _check_rate(cfg, "campaign.sample_rate", fs, nom["speed_rpm"] + st["speed_rpm"])
