@@ -228,7 +228,9 @@ def test(cfg: Mapping[str, Any], test: str, profile: str,
     xarray.Dataset
         On ``time`` [s]: ``speed_ref`` [rad/s], ``torque_ref`` [N·m], the signals of
         :data:`SIGNALS` clean and, with ``_measured``, measured-like; ``pulse_time`` [s]
-        on ``pulse``.
+        on ``pulse``. With a ``drivetrain:``, that chain's record instead
+        (:func:`gbpipe.simulate.chain_campaign.simulate_chain`: its sensors and motor
+        torques, no pulses).
 
     Raises
     ------
@@ -237,8 +239,8 @@ def test(cfg: Mapping[str, Any], test: str, profile: str,
         excitation frequency — before any simulation.
     ExcitationError
         A designed test whose predicted motor torque (the clean simulation: references,
-        designed signal and ripple) exceeds ``bench.torque_limit`` of either motor — before
-        the measured-like signals are made.
+        designed signal and ripple) exceeds a motor's limit (``bench.torque_limit``, a
+        drivetrain's ``torque_limit``) — before the measured-like signals are made.
     """
     if "campaign" not in cfg:
         raise ValueError("config has no 'campaign' section: add it (see config/README.md)")
