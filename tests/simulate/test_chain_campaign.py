@@ -118,3 +118,20 @@ def test_designed_test_refused_beyond_a_motors_torque_limit(cfg):
     c = load(*BASE, {"campaign": {"designed": designed}, "drivetrain": {"motors": motors}})
     with pytest.raises(ExcitationError, match=r"drivetrain\.motors\[0\]\.torque_limit"):
         simulate.test(c, "ms", "square")
+
+
+def test_tachometer_on_a_named_angle_sensor(cfg):
+    sensors = [*cfg["drivetrain"]["sensors"], {"name": "angle_load", "angle": "load"}]
+    tach = {"sensor": "angle_load", "pulses_per_rev": 4, "jitter": 0.0}
+    c = load(*BASE, {"drivetrain": {"sensors": sensors}, "tachometer": tach})
+    ds = simulate.test(c, "speed_up", "square")
+    theta = ds.angle_load.values - ds.angle_load.values[0]
+    # each pulse where the angle crosses a multiple of a quarter turn (no spacing error,
+    # no jitter; the clock floors by < 0.1 µs): times by inverse interpolation of the
+    # clean angle, independent of the tachometer's cubic interpolant
+    k = np.arange(1, ds.sizes["pulse"] + 1)
+    expected = np.interp(k * 2 * np.pi / 4, theta, ds.time.values)
+    assert ds.sizes["pulse"] == int(theta[-1] // (2 * np.pi / 4))
+    np.testing.assert_allclose(ds.pulse_time.values, expected, atol=2e-6)
+    with pytest.raises(ConfigError, match=r"tachometer\.sensor.*angle_load"):
+        load(*BASE, {"drivetrain": {"sensors": sensors}, "tachometer": {"sensor": "speed_load"}})

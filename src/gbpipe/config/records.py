@@ -101,16 +101,27 @@ def check_campaign(cfg: Mapping[str, Any]) -> None:
     fs = float(camp["sample_rate"])
     if cfg.get("drivetrain"):
         # a chain's campaign: one speed and one torque loop, a ripple per motor; no
-        # angle-locked excitation nor tachometer to resolve (gbpipe.simulate.chain_campaign)
+        # angle-locked excitation to resolve; a tachometer only on a named angle sensor
+        # (gbpipe.simulate.chain_campaign)
         chain = build_chain(cfg["drivetrain"])
         chain_loops(chain)
         chain_ripple(cfg, chain)
+        sensor = cfg["tachometer"].get("sensor")
+        if sensor and sensor not in chain.angle_sensors:
+            raise ConfigError("tachometer.sensor", f"'{sensor}' is not an angle sensor of the "
+                              f"drivetrain; use one of {sorted(chain.angle_sensors)} or add "
+                              "'{name: ..., angle: <disk>}' to drivetrain.sensors")
+        if sensor:
+            _check_clock(cfg, nom["speed_rpm"] + st["speed_rpm"])
         other = [v for v in cfg["identify"]["versions"] if v not in ("clean", "raw")]
         if other and not cfg["measured"]:
             raise ConfigError("identify.versions", f"{other}: TSA and harmonic removal are "
                               "the paper gearbox's (its orders and tachometer); a simulated "
                               "drivetrain's campaign identifies 'clean' and 'raw'")
     else:
+        if cfg["tachometer"].get("sensor"):
+            raise ConfigError("tachometer.sensor", "names a drivetrain's angle sensor; the "
+                              "paper bench's tachometer is on the GB1 HSS: remove the key")
         _check_paper_ripple(cfg["noise"], "noise")
         _check_rate(cfg, "campaign.sample_rate", fs, nom["speed_rpm"] + st["speed_rpm"])
         _check_clock(cfg, nom["speed_rpm"] + st["speed_rpm"])

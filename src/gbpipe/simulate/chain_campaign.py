@@ -12,8 +12,10 @@ torque sensor). Every motor's torque carries the broadband ripple of
 The record holds the chain's sensors and ``motor_torque_<motor>`` (:func:`chain_signals`),
 clean and, measured-like, with ``_measured`` variants: clean plus white sensor noise of
 ``noise.sensor.<kind>`` (speed [rad/s], torque [N·m], angle [rad], 0 when not given).
-Angle-locked excitation, pulsating motor torque, encoder quantisation and the tachometer
-are the paper bench's only (not simulated on a chain: refused where configured).
+With ``tachometer.sensor`` (an angle sensor of the chain), the measured-like record
+also holds that shaft's pulse train (``pulse_time``, as on the paper bench). Angle-locked
+excitation, pulsating motor torque and encoder quantisation are the paper bench's only
+(not simulated on a chain: refused where configured).
 """
 
 from __future__ import annotations
@@ -30,6 +32,7 @@ from gbpipe.model import bench_chain, bench_ss
 from gbpipe.model.chain import Chain
 from gbpipe.model.statespace import loop_names
 from gbpipe.simulate.steady import steady_state
+from gbpipe.simulate.tacho import pulse_times, tooth_errors
 
 __all__ = ["chain_signals", "chain_loops", "chain_ripple", "simulate_chain"]
 
@@ -166,5 +169,30 @@ def simulate_chain(cfg: Mapping[str, Any], t: np.ndarray, speed_ref: np.ndarray,
             value = y[:, i] + float(sensor.get(kind, 0.0)) * rng.standard_normal(n)
             ds[f"{name}_measured"] = ("time", value, {
                 "units": unit, "long_name": f"{long_name}, measured-like (sensor noise)"})
+        tach = cfg["tachometer"]
+        if tach.get("sensor"):
+            ds = _tachometer(ds, tach, y[:, list(signals).index(tach["sensor"])], rng)
     ds.attrs["drivetrain"] = str(cfg["drivetrain"].get("name", "drivetrain"))
+    return ds
+
+
+def _tachometer(ds: xr.Dataset, tach: Mapping[str, Any], theta: np.ndarray,
+                rng: np.random.Generator) -> xr.Dataset:
+    """Add the pulse train of ``tachometer`` on the clean angle ``theta`` [rad] of its
+    sensor: tooth spacing errors, clock quantisation and jitter as on the paper bench."""
+    ppr = int(tach["pulses_per_rev"])
+    spacing = tooth_errors(ppr, float(tach["spacing_error"]), rng)
+    t = ds.time.values
+    pulses = pulse_times(t, theta - theta[0], ppr, spacing_error_rad=spacing,
+                         clock_hz=float(tach["clock_hz"]), rng=rng,
+                         jitter_s=float(tach["jitter"]))
+    ds["pulse_time"] = ("pulse", pulses, {"units": "s", "long_name": f"tachometer pulse time "
+                                          f"({tach['sensor']})"})
+    ds = ds.assign_coords(pulse=("pulse", np.arange(pulses.size),
+                                 {"units": "1", "long_name": "tachometer pulse number"}))
+    ds["tooth_spacing_error"] = ("tooth", spacing, {"units": "rad",
+                                                    "long_name": "tachometer tooth spacing error"})
+    ds = ds.assign_coords(tooth=("tooth", np.arange(ppr), {"units": "1",
+                                                           "long_name": "tachometer tooth"}))
+    ds.attrs["pulses_per_rev"] = ppr
     return ds
