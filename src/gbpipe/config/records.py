@@ -85,6 +85,27 @@ def _check_paper_ripple(noise: Mapping[str, Any], where: str) -> None:
                               "motors take their own names)")
 
 
+def _check_chain_campaign(cfg: Mapping[str, Any], rpm_max: float) -> None:
+    # a chain's campaign: one speed and one torque loop, a ripple per motor; no
+    # angle-locked excitation to resolve; a tachometer only on a named angle sensor
+    # (gbpipe.simulate.chain_campaign)
+    chain = build_chain(cfg["drivetrain"])
+    chain_loops(chain)
+    chain_ripple(cfg, chain)
+    sensor = cfg["tachometer"].get("sensor")
+    if sensor and sensor not in chain.angle_sensors:
+        raise ConfigError("tachometer.sensor", f"'{sensor}' is not an angle sensor of the "
+                          f"drivetrain; use one of {sorted(chain.angle_sensors)} or add "
+                          "'{name: ..., angle: <disk>}' to drivetrain.sensors")
+    if sensor:
+        _check_clock(cfg, rpm_max)
+    other = [v for v in cfg["identify"]["versions"] if v not in ("clean", "raw")]
+    if other:
+        raise ConfigError("identify.versions", f"{other}: TSA and harmonic removal are "
+                          "the paper gearbox's (its orders and tachometer); a simulated "
+                          "drivetrain's campaign identifies 'clean' and 'raw'")
+
+
 def check_campaign(cfg: Mapping[str, Any]) -> None:
     """Check steps, ranges, sample rate and record sizes of the ``campaign`` section."""
     camp = cfg["campaign"]
@@ -100,24 +121,8 @@ def check_campaign(cfg: Mapping[str, Any]) -> None:
                               f"full range campaign.full_range.{key} = {fr[key]:g}")
     fs = float(camp["sample_rate"])
     if cfg.get("drivetrain"):
-        # a chain's campaign: one speed and one torque loop, a ripple per motor; no
-        # angle-locked excitation to resolve; a tachometer only on a named angle sensor
-        # (gbpipe.simulate.chain_campaign)
-        chain = build_chain(cfg["drivetrain"])
-        chain_loops(chain)
-        chain_ripple(cfg, chain)
-        sensor = cfg["tachometer"].get("sensor")
-        if sensor and sensor not in chain.angle_sensors:
-            raise ConfigError("tachometer.sensor", f"'{sensor}' is not an angle sensor of the "
-                              f"drivetrain; use one of {sorted(chain.angle_sensors)} or add "
-                              "'{name: ..., angle: <disk>}' to drivetrain.sensors")
-        if sensor:
-            _check_clock(cfg, nom["speed_rpm"] + st["speed_rpm"])
-        other = [v for v in cfg["identify"]["versions"] if v not in ("clean", "raw")]
-        if other and not cfg["measured"]:
-            raise ConfigError("identify.versions", f"{other}: TSA and harmonic removal are "
-                              "the paper gearbox's (its orders and tachometer); a simulated "
-                              "drivetrain's campaign identifies 'clean' and 'raw'")
+        if not cfg["measured"]:  # bench records of a chain: nothing is simulated
+            _check_chain_campaign(cfg, nom["speed_rpm"] + st["speed_rpm"])
     else:
         if cfg["tachometer"].get("sensor"):
             raise ConfigError("tachometer.sensor", "names a drivetrain's angle sensor; the "
