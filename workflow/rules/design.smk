@@ -29,7 +29,7 @@ rule design:
         # the bench (model), the set-points (campaign), the noise spectra and the gear
         # excitation, what each data version removes, and the identification predicted
         cfg={**{k: config[k] for k in ("seed", "gearbox", "bench", "campaign", "noise",
-                                       "excitation")},
+                                       "excitation")}, **DRIVETRAIN,
              "tsa": {"tests": config["tsa"]["tests"]},
              "removal": {"tests": config["removal"]["tests"]},
              "identify": {k: config["identify"][k] for k in (

@@ -34,9 +34,10 @@ rule identify:
     input:
         record=f"{RESULTS}/simulate/{{test}}_{{profile}}.nc",
         validation=lambda w: f"{RESULTS}/simulate/{_partner(w.test)}_{w.profile}.nc",
-        tsa_record=f"{RESULTS}/tsa/tests/{{test}}_{{profile}}.nc",
-        tsa_validation=lambda w: (
-            f"{RESULTS}/tsa/tests/{_partner(w.test)}_{w.profile}.nc"),
+        # (a drivetrain's records have no TSA version: identify.versions clean, raw)
+        tsa_record=[] if DRIVETRAIN else f"{RESULTS}/tsa/tests/{{test}}_{{profile}}.nc",
+        tsa_validation=lambda w: ([] if DRIVETRAIN else
+                                  f"{RESULTS}/tsa/tests/{_partner(w.test)}_{w.profile}.nc"),
         # per removal version: the record after it, then the validation record after it
         removed=lambda w: [f"{RESULTS}/removal/tests/{m}/{t}_{w.profile}.nc"
                            for m in REMOVAL_VERSIONS

@@ -5,7 +5,7 @@ rule model:
     input:
         code=code("model.py"),
     params:
-        model={k: config[k] for k in ("gearbox", "bench", "model")},
+        model={**{k: config[k] for k in ("gearbox", "bench", "model")}, **DRIVETRAIN},
         # the identification grid and mode limits of the truth (identify reads truth.nc)
         truth={k: config["identify"][k] for k in ("pairings", "frf", "zeta_max")},
     output:

@@ -1,7 +1,7 @@
 # the test records' config slice (rule `campaign`: every record the workflow reads, in one
 # job)
-SIMULATE_CFG = {k: config[k] for k in ("seed", "gearbox", "bench", "campaign", "noise",
-                                       "excitation", "tachometer")}
+SIMULATE_CFG = {**{k: config[k] for k in ("seed", "gearbox", "bench", "campaign", "noise",
+                                          "excitation", "tachometer")}, **DRIVETRAIN}
 
 
 def _identified_tests():
@@ -22,8 +22,9 @@ def _campaign_records():
     # ramp tests of figures 7-10, and the identified tests with their validation records
     camp = config["campaign"]
     records = {(t, p) for t in camp["tests"] for p in camp["profiles"]}
-    records |= {(t, config["figures"]["test_profile"])
-                for t in ("speed_up", "speed_down", "torque_up", "torque_down")}
+    if not config.get("drivetrain"):  # figures 7-10 are the paper bench's
+        records |= {(t, config["figures"]["test_profile"])
+                    for t in ("speed_up", "speed_down", "torque_up", "torque_down")}
     return sorted(records | set(REMOVAL_RECORDS))
 
 

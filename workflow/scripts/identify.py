@@ -7,7 +7,8 @@ snakemake = globals()["snakemake"]
 log = io.setup_log(snakemake.log[0])
 w, cfg, i = snakemake.wildcards, snakemake.params.cfg, snakemake.input
 methods = cfg["identify"]["methods"]
-removed = {"tsa": (io.read(i.tsa_record), io.read(i.tsa_validation))}
+# a drivetrain's campaign has no TSA records (rules.identify)
+removed = {"tsa": (io.read(i.tsa_record), io.read(i.tsa_validation))} if i.tsa_record else {}
 # rules.identify lists, per removal version in order, its record then its validation record
 paths = list(i.removed)
 for k, version in enumerate(snakemake.params.removal_versions):

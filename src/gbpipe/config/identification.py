@@ -13,8 +13,10 @@ from typing import Any
 
 from gbpipe.config.schema_validation import suggest
 from gbpipe.errors import ConfigError
+from gbpipe.model.chain import build_chain
 from gbpipe.model.truth import TORQUES
 from gbpipe.simulate import base_test, test_names
+from gbpipe.simulate.chain_campaign import chain_signals
 from gbpipe.simulate.profiles import test_duration
 from gbpipe.simulate.signals import SIGNALS
 
@@ -73,6 +75,13 @@ def _check_rates(cfg: Mapping[str, Any]) -> None:
 def _check_pairings(cfg: Mapping[str, Any]) -> None:
     idc = cfg["identify"]
     names = [p["name"] for p in idc["pairings"]]
+    # the record contract: a drivetrain's sensors and motor torques, else the paper's
+    if cfg.get("drivetrain") and not cfg["measured"]:
+        chain = build_chain(cfg["drivetrain"])
+        signals, torques = list(chain_signals(chain)), [m.input for m in chain.motors]
+        where = "drivetrain"
+    else:
+        signals, torques, where = list(SIGNALS), list(TORQUES), "bench"
     for i, p in enumerate(idc["pairings"]):
         if p["name"] in names[:i]:
             raise ConfigError(f"identify.pairings[{i}].name",
@@ -80,17 +89,18 @@ def _check_pairings(cfg: Mapping[str, Any]) -> None:
         if cfg["measured"]:
             continue  # names are checked against the measured records (config.measured)
         for j, inp in enumerate(p["inputs"]):
-            if inp not in TORQUES:
+            if inp not in torques:
                 raise ConfigError(f"identify.pairings[{i}].inputs[{j}]",
-                                  f"'{inp}' is not a motor torque of the simulated bench; "
-                                  f"{suggest(inp, TORQUES)}")
+                                  f"'{inp}' is not a motor torque of the simulated "
+                                  f"{where}; {suggest(inp, torques)}")
         if "reference" in p:
             raise ConfigError(f"identify.pairings[{i}].reference", "is for measured records "
                               "only (a simulated record's model is scored against the truth)")
         for j, out in enumerate(p["outputs"]):
-            if out not in SIGNALS:
+            if out not in signals:
                 raise ConfigError(f"identify.pairings[{i}].outputs[{j}]",
-                                  f"'{out}' is not a recorded signal; {suggest(out, SIGNALS)}")
+                                  f"'{out}' is not a recorded signal of the simulated "
+                                  f"{where}; {suggest(out, signals)}")
     if cfg["measured"]:
         return  # tests, profiles and best.* are of the simulated campaign
     if any(v != "clean" for v in idc["versions"]) and not cfg["campaign"]["measured_like"]:

@@ -12,6 +12,9 @@ from typing import Any
 
 from gbpipe.errors import ConfigError
 from gbpipe.kinematics import order_of
+from gbpipe.model.chain import build_chain
+from gbpipe.simulate.chain_campaign import chain_loops, chain_ripple
+from gbpipe.simulate.noise import MOTORS
 from gbpipe.simulate.profiles import ramp_rate, test_duration
 
 __all__ = ["MAX_SAMPLES", "highest_excitation_hz", "check_campaign", "check_sweep"]
@@ -73,6 +76,36 @@ def _check_clock(cfg: Mapping[str, Any], rpm_max: float) -> None:
                           f"use at most {1 / (50 * rate):.3g} s")
 
 
+def _check_paper_ripple(noise: Mapping[str, Any], where: str) -> None:
+    # the schema takes any motor name (a drivetrain's); the paper bench has two
+    for key in noise.get("motor_ripple", {}):
+        if key not in MOTORS:
+            raise ConfigError(f"{where}.motor_ripple.{key}", "names no motor of the paper's "
+                              f"bench; use {' or '.join(MOTORS)} (a drivetrain: section's "
+                              "motors take their own names)")
+
+
+def _check_chain_campaign(cfg: Mapping[str, Any], rpm_max: float) -> None:
+    # a chain's campaign: one speed and one torque loop, a ripple per motor; no
+    # angle-locked excitation to resolve; a tachometer only on a named angle sensor
+    # (gbpipe.simulate.chain_campaign)
+    chain = build_chain(cfg["drivetrain"])
+    chain_loops(chain)
+    chain_ripple(cfg, chain)
+    sensor = cfg["tachometer"].get("sensor")
+    if sensor and sensor not in chain.angle_sensors:
+        raise ConfigError("tachometer.sensor", f"'{sensor}' is not an angle sensor of the "
+                          f"drivetrain; use one of {sorted(chain.angle_sensors)} or add "
+                          "'{name: ..., angle: <disk>}' to drivetrain.sensors")
+    if sensor:
+        _check_clock(cfg, rpm_max)
+    other = [v for v in cfg["identify"]["versions"] if v not in ("clean", "raw")]
+    if other:
+        raise ConfigError("identify.versions", f"{other}: TSA and harmonic removal are "
+                          "the paper gearbox's (its orders and tachometer); a simulated "
+                          "drivetrain's campaign identifies 'clean' and 'raw'")
+
+
 def check_campaign(cfg: Mapping[str, Any]) -> None:
     """Check steps, ranges, sample rate and record sizes of the ``campaign`` section."""
     camp = cfg["campaign"]
@@ -87,15 +120,29 @@ def check_campaign(cfg: Mapping[str, Any]) -> None:
                               f"nominal + step = {nom[key] + st[key]:g} exceeds the bench's "
                               f"full range campaign.full_range.{key} = {fr[key]:g}")
     fs = float(camp["sample_rate"])
-    _check_rate(cfg, "campaign.sample_rate", fs, nom["speed_rpm"] + st["speed_rpm"])
+    if cfg.get("drivetrain"):
+        if not cfg["measured"]:  # bench records of a chain: nothing is simulated
+            _check_chain_campaign(cfg, nom["speed_rpm"] + st["speed_rpm"])
+    else:
+        if cfg["tachometer"].get("sensor"):
+            raise ConfigError("tachometer.sensor", "names a drivetrain's angle sensor; the "
+                              "paper bench's tachometer is on the GB1 HSS: remove the key")
+        _check_paper_ripple(cfg["noise"], "noise")
+        _check_rate(cfg, "campaign.sample_rate", fs, nom["speed_rpm"] + st["speed_rpm"])
+        _check_clock(cfg, nom["speed_rpm"] + st["speed_rpm"])
     _check_model_grid(cfg)
-    _check_clock(cfg, nom["speed_rpm"] + st["speed_rpm"])
     longest = max(test_duration(camp, t, p) for t in camp["tests"] for p in camp["profiles"])
     _check_size("campaign.sample_rate", longest, fs)
 
 
 def check_sweep(cfg: Mapping[str, Any]) -> None:
-    """Check the ``sweep`` section: speeds, ramp rate, sample rate, record size."""
+    """Check the ``sweep`` section: speeds, ramp rate, sample rate, record size.
+
+    Not with a ``drivetrain:`` (the sweep is the paper bench's: its rule is skipped).
+    """
+    if cfg.get("drivetrain"):
+        return
+    _check_paper_ripple(cfg["sweep"].get("noise", {}), "sweep.noise")
     sw = cfg["sweep"]
     if sw["rpm_end"] == sw["rpm_start"]:
         raise ConfigError("sweep.rpm_end", f"{sw['rpm_end']:g} rpm equals sweep.rpm_start: a "

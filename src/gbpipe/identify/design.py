@@ -347,7 +347,10 @@ def predict_test(cfg: Mapping[str, Any], closed: NamedSS, truths: Mapping[str, N
     f = np.geomspace(float(grid["f_min"]), float(grid["f_max"]), int(grid["points"]))
     signals = sorted({s for p in idc["pairings"] for s in (*p["inputs"], *p["outputs"])})
     locked = [s for s in closed.inputs if s.startswith(("te_", "misalign_"))]
-    sources = [*SOURCES, *locked]
+    # the paper's SOURCES, or a drivetrain's references and one disturbance per motor
+    motors = [s.removeprefix("disturbance_") for s in closed.inputs
+              if s.startswith("disturbance_")]
+    sources = [*SOURCES[:2], *(f"disturbance_{m}" for m in motors), *locked]
     t_frf = frf(closed.select(sources, signals), f)
     rotation = (float(np.min(speed_ref)) / (2 * np.pi), float(np.max(speed_ref)) / (2 * np.pi))
     # the simulator scales every gear-excitation amplitude with the braking-torque set-point
@@ -369,7 +372,7 @@ def predict_test(cfg: Mapping[str, Any], closed: NamedSS, truths: Mapping[str, N
             **set_points,
             **{f"disturbance_{m}": ripple_psd(noise["motor_ripple"][m], fs, f, rotation,
                                               resolution, f"noise.motor_ripple.{m}", removed)
-               for m in ("driver", "driven")},
+               for m in motors},
             # clean data have no gear excitation (the simulator adds it to the measured-like
             # signals only); their sensor noise: the Notes
             **({} if cycles is None else excitation_psds(

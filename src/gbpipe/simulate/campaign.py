@@ -28,12 +28,12 @@ from typing import Any
 import numpy as np
 import xarray as xr
 from scipy.integrate import cumulative_trapezoid
-from scipy.linalg import null_space
 
 from gbpipe.errors import ExcitationError
 from gbpipe.kinematics import order_of, total_ratio
 from gbpipe.lti import NamedSS, lsim
-from gbpipe.model import bench_ss
+from gbpipe.model import bench_chain, bench_ss
+from gbpipe.simulate.chain_campaign import simulate_chain
 from gbpipe.simulate.designed import (
     check_name,
     designed_reference,
@@ -44,6 +44,7 @@ from gbpipe.simulate.excitation import within_limits
 from gbpipe.simulate.noise import MOTORS, broadband_ripple, pulsating_torque, quantisation_noise
 from gbpipe.simulate.profiles import PROFILES, RPM, TESTS, sweep_reference
 from gbpipe.simulate.signals import SIGNALS
+from gbpipe.simulate.steady import steady_state
 from gbpipe.simulate.tacho import pulse_times, tooth_errors
 
 __all__ = ["test", "sweep", "steady_state", "SIGNALS"]
@@ -55,30 +56,6 @@ PREROLL = 2.0
 #: Spawn key (under ``seed``) of the pulsating-torque phases: one draw per configuration.
 PULSATING_KEY = 1000
 _DISTURBANCES = ["disturbance_driver", "disturbance_driven"]
-
-
-def steady_state(ss: NamedSS, u0: np.ndarray, omega0: float) -> np.ndarray:
-    """Closed-loop state in steady rotation at ``omega0`` [rad/s] under inputs ``u0``.
-
-    Every derivative but the angles' is zero, every body turns at its kinematic share of
-    ``omega0`` (the rigid-body mode of the stiffness matrix), and the GB1 HSS angle is 0.
-    """
-    n_q = sum(s.startswith("angle[") for s in ss.states)
-    n = ss.A.shape[0]
-    K = -ss.A[n_q:2 * n_q, :n_q]          # M⁻¹K: same null space as K
-    rigid = null_space(K)
-    if rigid.shape[1] != 1:
-        raise RuntimeError(f"expected one rigid-body mode, found {rigid.shape[1]}")
-    r = rigid[:, 0] / rigid[ss.states.index("angle[driver_motor]"), 0]
-    select_speeds = np.hstack([np.zeros((n_q, n_q)), np.eye(n_q), np.zeros((n_q, n - 2 * n_q))])
-    rows = [ss.A[n_q:], select_speeds, ss.C[[ss.outputs.index("angle_gb1_hss")]]]
-    rhs = [-ss.B[n_q:] @ u0, omega0 * r, np.zeros(1)]
-    E, b = np.vstack(rows), np.concatenate(rhs)
-    x0, *_ = np.linalg.lstsq(E, b, rcond=None)
-    resid = np.abs(E @ x0 - b).max()
-    if resid > 1e-6 * max(1.0, np.abs(b).max()):
-        raise RuntimeError(f"no steady state found (residual {resid:.3g})")
-    return x0
 
 
 def _overlay(base: Mapping[str, Any], over: Mapping[str, Any]) -> dict[str, Any]:
@@ -251,7 +228,9 @@ def test(cfg: Mapping[str, Any], test: str, profile: str,
     xarray.Dataset
         On ``time`` [s]: ``speed_ref`` [rad/s], ``torque_ref`` [N·m], the signals of
         :data:`SIGNALS` clean and, with ``_measured``, measured-like; ``pulse_time`` [s]
-        on ``pulse``.
+        on ``pulse``. With a ``drivetrain:``, that chain's record instead
+        (:func:`gbpipe.simulate.chain_campaign.simulate_chain`: its sensors and motor
+        torques, no pulses).
 
     Raises
     ------
@@ -260,8 +239,8 @@ def test(cfg: Mapping[str, Any], test: str, profile: str,
         excitation frequency — before any simulation.
     ExcitationError
         A designed test whose predicted motor torque (the clean simulation: references,
-        designed signal and ripple) exceeds ``bench.torque_limit`` of either motor — before
-        the measured-like signals are made.
+        designed signal and ripple) exceeds a motor's limit (``bench.torque_limit``, a
+        drivetrain's ``torque_limit``) — before the measured-like signals are made.
     """
     if "campaign" not in cfg:
         raise ValueError("config has no 'campaign' section: add it (see config/README.md)")
@@ -279,6 +258,13 @@ def test(cfg: Mapping[str, Any], test: str, profile: str,
 
         def check(ss: NamedSS, ds: xr.Dataset) -> None:
             _check_torque_limit(cfg, test, profile, ss, ds)
+    if cfg.get("drivetrain"):
+        ds = simulate_chain(cfg, t, w_ref, t_ref, _rng(int(cfg["seed"]), *key), measured_like)
+        if check is not None:
+            check(bench_ss(cfg), ds)
+        ds.attrs.update(seed=int(cfg["seed"]), test=test, profile=profile,
+                        sample_rate=float(camp["sample_rate"]))
+        return ds
     ds = _simulate(cfg, t, w_ref, t_ref, key, measured_like, check)
     return _attrs(ds, cfg, test=test, profile=profile,
                   sample_rate=float(camp["sample_rate"]))
@@ -294,19 +280,30 @@ def _check_torque_limit(cfg: Mapping[str, Any], name: str, profile: str, ss: Nam
     """
     i, spec = designed_spec(cfg, name)
     _, x = designed_setpoint(cfg, name, profile)
-    outs = [f"motor_torque_{m}" for m in MOTORS]
+    limits = _torque_limits(cfg)
+    outs = [f"motor_torque_{m}" for m in limits]
     resp, _ = lsim(ss.select([f"{spec['setpoint']}_ref"], outs), x[:, None],
                    float(ds.time[1] - ds.time[0]))
-    for j, m in enumerate(MOTORS):
+    for j, (m, (limit, key)) in enumerate(limits.items()):
         total = ds[outs[j]].values
         try:
-            within_limits(total - resp[:, j], resp[:, j], float(cfg["bench"]["torque_limit"][m]),
+            within_limits(total - resp[:, j], resp[:, j], limit,
                           f"{outs[j]} (simulated)", float(cfg["campaign"]["sample_rate"]))
         except ExcitationError as exc:
             raise ExcitationError(
                 f"campaign.designed[{i}] ({name}, {profile} profile) drives the {m} motor "
-                f"beyond bench.torque_limit.{m}: {exc}. Lower campaign.designed[{i}].rms, "
-                f"or raise bench.torque_limit.{m} if the motor allows it") from None
+                f"beyond {key}: {exc}. Lower campaign.designed[{i}].rms, "
+                f"or raise {key} if the motor allows it") from None
+
+
+def _torque_limits(cfg: Mapping[str, Any]) -> dict[str, tuple[float, str]]:
+    """Peak torque [N·m] and its key path, by motor: a drivetrain's motors that give
+    ``torque_limit``, else the paper's ``bench.torque_limit``."""
+    if cfg.get("drivetrain"):
+        return {m.name: (float(m.torque_limit), f"drivetrain.motors[{m.index}].torque_limit")
+                for m in bench_chain(cfg).motors if m.torque_limit is not None}
+    return {m: (float(cfg["bench"]["torque_limit"][m]), f"bench.torque_limit.{m}")
+            for m in MOTORS}
 
 
 def sweep(cfg: Mapping[str, Any]) -> xr.Dataset:
