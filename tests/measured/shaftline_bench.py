@@ -33,8 +33,11 @@ from nptdms import ChannelObject, TdmsWriter
 from scipy import linalg, signal
 
 from gbpipe.config.loader import read_yaml
+from gbpipe.identify import nonparametric_reference
 from gbpipe.lti import lsim
 from gbpipe.model.assembly import bench_chain, bench_ss
+from gbpipe.model.frf import Pairing
+from gbpipe.model.frf_data import FrfData, sigma_from_bounds
 from gbpipe.model.keypath import get_value, with_values
 from tests.measured.bench_campaign import EPOCH, tacho_voltage
 
@@ -104,6 +107,35 @@ def simulate(cfg: dict, fs: float, duration: float, seed: int, tacho_disk: str,
     node = tacho_disk
     out["tacho"] = tacho_voltage(t, speeds[node] + y[:, ss.outputs.index(_speed_sensor(
         desc, node))], 1)
+    return out
+
+
+def record_data(cfg: dict, truth: dict, seed: int, duration: float,
+                fs: float = 2000.0) -> list[FrfData]:
+    """The pairings' nonparametric FRFs of one record of ``truth``, as the fit takes them.
+
+    The record: :func:`simulate` of ``truth`` [``duration`` s at ``fs`` Hz, the first
+    motor excited]; per pairing of ``cfg["identify"]``: H1 of Welch averages
+    (:func:`gbpipe.identify.nonparametric_reference`) where coherent, inside
+    ``cfg["fit"]["band"]`` [Hz], sigma from its 95 % bounds, the zero-order hold's own
+    response divided out.
+    """
+    sig = simulate(truth, fs, duration, seed, "load", (truth["drivetrain"]["motors"][0]["name"],))
+    s = cfg["identify"]
+    band = cfg["fit"]["band"]
+    out = []
+    for p in s["pairings"]:
+        pairing = Pairing.from_config(p)
+        u = np.column_stack([sig[n] - sig[n].mean() for n in pairing.inputs])
+        y = np.column_stack([sig[n] - sig[n].mean() for n in pairing.outputs])
+        ref = nonparametric_reference(u, y, fs, s)
+        keep = ref.assessable & (ref.frequency >= band[0]) & (ref.frequency <= band[1])
+        f = ref.frequency[keep]
+        # the record's inputs are held over a sample (ZOH): the sampled response is the
+        # model's times exp(-jπf/fs)·sinc(f/fs) (the hold's own response), removed here
+        hold = np.exp(-1j * np.pi * f / fs) * np.sinc(f / fs)
+        g = ref.frf[keep] / hold[:, None, None]
+        out.append(FrfData(pairing, f, g, sigma_from_bounds(ref.lower[keep], ref.upper[keep])))
     return out
 
 
