@@ -38,6 +38,8 @@ def _copy(dest: Path) -> None:
     files = subprocess.run(["git", "ls-files", "-co", "--exclude-standard"], cwd=ROOT,
                            check=True, capture_output=True, text=True).stdout.split()
     for f in files:
+        if not (ROOT / f).is_file():     # a submodule or link to a folder: not needed
+            continue
         target = dest / f
         target.parent.mkdir(parents=True, exist_ok=True)
         target.write_bytes((ROOT / f).read_bytes())

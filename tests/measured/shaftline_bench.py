@@ -84,9 +84,11 @@ def _static_speeds(cfg: dict, speed: float) -> dict[str, float]:
 
 
 def simulate(cfg: dict, fs: float, duration: float, seed: int, tacho_disk: str,
-             excited: tuple[str, ...]) -> dict[str, np.ndarray]:
+             excited: tuple[str, ...], references: bool = False) -> dict[str, np.ndarray]:
     """The chain's logged signals [SI] on a uniform grid at ``fs`` [Hz] for ``duration`` [s],
-    the motors named in ``excited`` driven by random torques."""
+    the motors named in ``excited`` driven by random torques (with ``references``, each
+    also as ``disturbance_<motor>`` [N·m]: the noise-free reference of a closed-loop
+    estimate)."""
     rng = np.random.default_rng(seed)
     ss = bench_ss(cfg)
     n = int(round(duration * fs))
@@ -98,9 +100,11 @@ def simulate(cfg: dict, fs: float, duration: float, seed: int, tacho_disk: str,
             u[:, i] = signal.lfilter(b, a, rng.standard_normal(n))
             u[:, i] *= EXCITATION_SHARE * LOAD_TORQUE / u[:, i].std()
     y, _ = lsim(ss, u, 1.0 / fs)
+    out_r = {name: u[:, i] for i, name in enumerate(ss.inputs)
+             if references and name.removeprefix("disturbance_") in excited}
     speeds = _static_speeds(cfg, SPEED)
     desc = cfg["drivetrain"]
-    out: dict[str, np.ndarray] = {"time": t}
+    out: dict[str, np.ndarray] = {"time": t, **out_r}
     for j, name in enumerate(ss.outputs):
         dyn = y[:, j] + NOISE_SHARE * y[:, j].std() * rng.standard_normal(n)
         out[name] = dyn + _offset(desc, name, speeds)
@@ -111,16 +115,18 @@ def simulate(cfg: dict, fs: float, duration: float, seed: int, tacho_disk: str,
 
 
 def record_data(cfg: dict, truth: dict, seed: int, duration: float,
-                fs: float = 2000.0) -> list[FrfData]:
+                fs: float = 2000.0, reference: bool = False) -> list[FrfData]:
     """The pairings' nonparametric FRFs of one record of ``truth``, as the fit takes them.
 
     The record: :func:`simulate` of ``truth`` [``duration`` s at ``fs`` Hz, the first
     motor excited]; per pairing of ``cfg["identify"]``: H1 of Welch averages
     (:func:`gbpipe.identify.nonparametric_reference`) where coherent, inside
     ``cfg["fit"]["band"]`` [Hz], sigma from its 95 % bounds, the zero-order hold's own
-    response divided out.
+    response divided out. With ``reference``, the closed-loop estimate through the
+    excitation (``S_yr S_ur⁻¹``) instead of H1.
     """
-    sig = simulate(truth, fs, duration, seed, "load", (truth["drivetrain"]["motors"][0]["name"],))
+    motor = truth["drivetrain"]["motors"][0]["name"]
+    sig = simulate(truth, fs, duration, seed, "load", (motor,), reference)
     s = cfg["identify"]
     band = cfg["fit"]["band"]
     out = []
@@ -128,7 +134,8 @@ def record_data(cfg: dict, truth: dict, seed: int, duration: float,
         pairing = Pairing.from_config(p)
         u = np.column_stack([sig[n] - sig[n].mean() for n in pairing.inputs])
         y = np.column_stack([sig[n] - sig[n].mean() for n in pairing.outputs])
-        ref = nonparametric_reference(u, y, fs, s)
+        r = sig[f"disturbance_{motor}"][:, None] if reference else None
+        ref = nonparametric_reference(u, y, fs, s, r)
         keep = ref.assessable & (ref.frequency >= band[0]) & (ref.frequency <= band[1])
         f = ref.frequency[keep]
         # the record's inputs are held over a sample (ZOH): the sampled response is the

@@ -54,7 +54,8 @@ IDENTIFIED, POOR_FIT, CONDITIONAL, UNIDENTIFIABLE = ("identified", "poor", "cond
 #: combination the data leave open, not a result). ``fit.accuracy`` sets it.
 DEFAULT_ACCURACY = 0.05
 #: Parameter statuses: determined and the fit passed its test (or had no sigma to test);
-#: determined but the fit is poor; fitted with an undetermined partner held; held at prior.
+#: determined but the fit is poor; fitted with an undetermined partner held, or known only
+#: to worse than ``accuracy``; held at prior.
 PARAMETER_STATUSES = (IDENTIFIED, POOR_FIT, CONDITIONAL, UNIDENTIFIABLE)
 
 
@@ -75,8 +76,10 @@ class FitResult:
         ``identified`` (determined, and the fit passed its goodness test or had no sigma
         to test against); ``poor`` (determined, but the fit failed the test: its interval
         assumes a model the data reject); ``unidentifiable`` (fixed at its prior);
-        ``conditional`` (fitted with an undetermined partner held at its prior: its value
-        is one point of a family the data cannot tell apart, so it gets no interval).
+        ``conditional`` (fitted with an undetermined partner held at its prior, or in a
+        direction the data determine only to worse than ``accuracy``: its value is one
+        point of a family the data cannot tell apart to that accuracy, so it gets no
+        interval).
     correlation : ndarray, shape (n, n)
         Correlation of the identified parameters' log-values (NaN elsewhere).
     combinations : list of str
@@ -340,8 +343,10 @@ def fit_parameters(cfg: Mapping[str, Any], data: Sequence[FrfData] | ModalData,
     # determined, but weakly: a direction known only to worse than ±accuracy (95 %)
     # (the structural ones are held above; these keep their fitted values: the data do
     # move them off the prior, only not to the accuracy asked)
+    # (a poor fit identifies nothing anyway: its determined parameters stay ``poor``, their
+    # Birge-widened intervals are no measure of what the data would determine)
     combinations = list(first.combinations)
-    if active.any():
+    if active.any() and determined_status == IDENTIFIED:
         half = float(np.log1p(accuracy))
         weak = analyse(problem.jacobian(theta)[:, active],
                        [names[i] for i in np.nonzero(active)[0]], scale, rtol, half / Z95,
