@@ -311,7 +311,7 @@ def fit_parameters(cfg: Mapping[str, Any], data: Sequence[FrfData] | ModalData,
     how = "starts"
     if needs_evolution(search, cost, cost_prior):
         # the starts may all have fallen into one wrong basin: cover the box
-        runs.append(evolution_run(problem, lo, hi, seed, theta))
+        runs.append(evolution_run(problem, lo, hi, seed))
         theta, cost = min(runs, key=lambda r: r[1])
         how = "starts + evolution"
 
