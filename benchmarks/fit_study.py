@@ -38,24 +38,36 @@ def _copy(dest: Path) -> None:
     files = subprocess.run(["git", "ls-files", "-co", "--exclude-standard"], cwd=ROOT,
                            check=True, capture_output=True, text=True).stdout.split()
     for f in files:
+        if not (ROOT / f).is_file():     # a submodule or link to a folder: not needed
+            continue
         target = dest / f
         target.parent.mkdir(parents=True, exist_ok=True)
         target.write_bytes((ROOT / f).read_bytes())
 
 
-def run_seed(work: Path, seed: int, version: str) -> Path:
-    """One workflow run of the study with noise seed ``seed``; the fit file's path."""
+def run_workflow(work: Path, configfiles: list[str], overlay: dict, target: str) -> Path:
+    """One workflow run in a scratch copy ``work`` of this repository up to ``target``.
+
+    ``configfiles`` (repository paths) are given to snakemake, then ``overlay`` (written
+    as ``overlay.yaml``); 2 cores, one thread each. Returns the target's path.
+    """
     _copy(work)
-    (work / "seed.yaml").write_text(yaml.safe_dump({"seed": seed, "fit": {"version": version}}))
+    (work / "overlay.yaml").write_text(yaml.safe_dump(overlay))
     env = dict(os.environ, OMP_NUM_THREADS="1",
                PYTHONPATH=os.pathsep.join(filter(None, [str(work / "src"),
                                                         os.environ.get("PYTHONPATH")])))
     proc = subprocess.run([sys.executable, "-m", "snakemake", "--cores", "2", "--configfile",
-                           str(STUDY), "seed.yaml", "--", f"results/fit/{RECORD}.nc"],
+                           *configfiles, "overlay.yaml", "--", target],
                           cwd=work, env=env, capture_output=True, text=True)
     if proc.returncode != 0:
-        raise RuntimeError(f"seed {seed}: snakemake failed\n{proc.stderr[-3000:]}")
-    return work / "results" / "fit" / f"{RECORD}.nc"
+        raise RuntimeError(f"{work}: snakemake failed\n{proc.stderr[-3000:]}")
+    return work / target
+
+
+def run_seed(work: Path, seed: int, version: str) -> Path:
+    """One workflow run of the study with noise seed ``seed``; the fit file's path."""
+    return run_workflow(work, [str(STUDY)], {"seed": seed, "fit": {"version": version}},
+                        f"results/fit/{RECORD}.nc")
 
 
 def main() -> None:

@@ -50,7 +50,7 @@ def test_a_wrong_stiffness_makes_the_fit_poor_and_names_the_misfit(cfg):
     """The LSS shaft of the data is 40 % stiffer than the model's and is not freed: the
     fit of two other stiffnesses to the driven-side FRF with its sigma cannot reach the
     data's bounds: status poor, no parameter identified, the reason names the pairing;
-    the same fit with the right LSS stiffness passes."""
+    the same fit with the right LSS stiffness passes and identifies."""
     pairing = Pairing("Tdrn_to_wdrn", ("motor_torque_driven",), ("speed_gb1_hss",))
     f = np.geomspace(5.0, 350.0, 80)
     free = ["gearbox.housing.stiffness", "bench.coupling.stiffness"]
@@ -73,4 +73,6 @@ def test_a_wrong_stiffness_makes_the_fit_poor_and_names_the_misfit(cfg):
     assert "Tdrn_to_wdrn" in wrong.goodness.reason and "Hz" in wrong.goodness.reason
     assert wrong.goodness.band_share.sum() == np.float64(1.0) or \
         abs(wrong.goodness.band_share.sum() - 1) < 1e-12
-    assert right.goodness.status == "passed" and right.identified.all()
+    # passed: no parameter is poor (one known worse than fit.accuracy is held instead)
+    assert right.goodness.status == "passed" and "poor" not in right.status
+    assert right.identified.any()

@@ -33,8 +33,11 @@ from nptdms import ChannelObject, TdmsWriter
 from scipy import linalg, signal
 
 from gbpipe.config.loader import read_yaml
+from gbpipe.identify import nonparametric_reference
 from gbpipe.lti import lsim
 from gbpipe.model.assembly import bench_chain, bench_ss
+from gbpipe.model.frf import Pairing
+from gbpipe.model.frf_data import FrfData, sigma_from_bounds
 from gbpipe.model.keypath import get_value, with_values
 from tests.measured.bench_campaign import EPOCH, tacho_voltage
 
@@ -81,9 +84,11 @@ def _static_speeds(cfg: dict, speed: float) -> dict[str, float]:
 
 
 def simulate(cfg: dict, fs: float, duration: float, seed: int, tacho_disk: str,
-             excited: tuple[str, ...]) -> dict[str, np.ndarray]:
+             excited: tuple[str, ...], references: bool = False) -> dict[str, np.ndarray]:
     """The chain's logged signals [SI] on a uniform grid at ``fs`` [Hz] for ``duration`` [s],
-    the motors named in ``excited`` driven by random torques."""
+    the motors named in ``excited`` driven by random torques (with ``references``, each
+    also as ``disturbance_<motor>`` [N·m]: the noise-free reference of a closed-loop
+    estimate)."""
     rng = np.random.default_rng(seed)
     ss = bench_ss(cfg)
     n = int(round(duration * fs))
@@ -95,15 +100,49 @@ def simulate(cfg: dict, fs: float, duration: float, seed: int, tacho_disk: str,
             u[:, i] = signal.lfilter(b, a, rng.standard_normal(n))
             u[:, i] *= EXCITATION_SHARE * LOAD_TORQUE / u[:, i].std()
     y, _ = lsim(ss, u, 1.0 / fs)
+    out_r = {name: u[:, i] for i, name in enumerate(ss.inputs)
+             if references and name.removeprefix("disturbance_") in excited}
     speeds = _static_speeds(cfg, SPEED)
     desc = cfg["drivetrain"]
-    out: dict[str, np.ndarray] = {"time": t}
+    out: dict[str, np.ndarray] = {"time": t, **out_r}
     for j, name in enumerate(ss.outputs):
         dyn = y[:, j] + NOISE_SHARE * y[:, j].std() * rng.standard_normal(n)
         out[name] = dyn + _offset(desc, name, speeds)
     node = tacho_disk
     out["tacho"] = tacho_voltage(t, speeds[node] + y[:, ss.outputs.index(_speed_sensor(
         desc, node))], 1)
+    return out
+
+
+def record_data(cfg: dict, truth: dict, seed: int, duration: float,
+                fs: float = 2000.0, reference: bool = False) -> list[FrfData]:
+    """The pairings' nonparametric FRFs of one record of ``truth``, as the fit takes them.
+
+    The record: :func:`simulate` of ``truth`` [``duration`` s at ``fs`` Hz, the first
+    motor excited]; per pairing of ``cfg["identify"]``: H1 of Welch averages
+    (:func:`gbpipe.identify.nonparametric_reference`) where coherent, inside
+    ``cfg["fit"]["band"]`` [Hz], sigma from its 95 % bounds, the zero-order hold's own
+    response divided out. With ``reference``, the closed-loop estimate through the
+    excitation (``S_yr S_ur⁻¹``) instead of H1.
+    """
+    motor = truth["drivetrain"]["motors"][0]["name"]
+    sig = simulate(truth, fs, duration, seed, "load", (motor,), reference)
+    s = cfg["identify"]
+    band = cfg["fit"]["band"]
+    out = []
+    for p in s["pairings"]:
+        pairing = Pairing.from_config(p)
+        u = np.column_stack([sig[n] - sig[n].mean() for n in pairing.inputs])
+        y = np.column_stack([sig[n] - sig[n].mean() for n in pairing.outputs])
+        r = sig[f"disturbance_{motor}"][:, None] if reference else None
+        ref = nonparametric_reference(u, y, fs, s, r)
+        keep = ref.assessable & (ref.frequency >= band[0]) & (ref.frequency <= band[1])
+        f = ref.frequency[keep]
+        # the record's inputs are held over a sample (ZOH): the sampled response is the
+        # model's times exp(-jπf/fs)·sinc(f/fs) (the hold's own response), removed here
+        hold = np.exp(-1j * np.pi * f / fs) * np.sinc(f / fs)
+        g = ref.frf[keep] / hold[:, None, None]
+        out.append(FrfData(pairing, f, g, sigma_from_bounds(ref.lower[keep], ref.upper[keep])))
     return out
 
 

@@ -67,7 +67,10 @@ def test_noisy_intervals_cover_truth(cfg):
         data = [FrfData(p, f, g * (1 + sigma * (rng.standard_normal(g.shape)
                                                 + 1j * rng.standard_normal(g.shape))), sigma)
                 for p, g in zip(pairings, clean, strict=True)]
-        res = fit_parameters(cfg, data, FREE[:5], n_starts=2, n_global=8, seed=seed)
+        # the intervals are under test, not the global search (tests/fit/test_global.py):
+        # the starts alone, as the 20 seeds would otherwise cost a differential evolution each
+        res = fit_parameters(cfg, data, FREE[:5], n_starts=2, n_global=8, seed=seed,
+                             search="starts")
         assert all(s == "identified" for s in res.status)
         worst = max(worst, float(np.max(np.abs(res.value / true - 1))))
         covered += list((res.interval[:, 0] <= true) & (true <= res.interval[:, 1]))
@@ -103,12 +106,12 @@ def test_a_measurement_delay_is_fitted_not_absorbed(cfg):
     data = [FrfData(p, f, g * lag) for p, g in zip(pairings, pairing_frf(truth, pairings, f),
                                                    strict=True)]
     true = np.array([get_value(truth, p) for p in FREE[:5]])
-    res = fit_parameters(cfg, data, FREE[:5], delay=True, n_starts=2)
+    res = fit_parameters(cfg, data, FREE[:5], delay=True, n_starts=2, search="starts")
     assert res.delay == pytest.approx(tau, rel=1e-4)
     assert res.delay_interval[0] <= res.delay <= res.delay_interval[1]
     assert np.max(np.abs(res.value / true - 1)) < 1e-3
     assert "delay [ms]" in res.table()
-    blind = fit_parameters(cfg, data, FREE[:5], n_starts=2)
+    blind = fit_parameters(cfg, data, FREE[:5], n_starts=2, search="starts")
     assert np.isnan(blind.delay_interval).all() and blind.delay == 0.0
     assert np.max(np.abs(blind.value / true - 1)) > 3 * np.max(np.abs(res.value / true - 1))
 
@@ -122,7 +125,7 @@ def test_intervals_widen_when_residuals_exceed_the_given_sigma(cfg):
     data = [FrfData(p, f, g * (1 + 0.05 * (rng.standard_normal(g.shape)
                                            + 1j * rng.standard_normal(g.shape))), 5e-4)
             for p, g in zip(pairings, pairing_frf(truth, pairings, f), strict=True)]
-    res = fit_parameters(cfg, data, FREE[:5], n_starts=1, n_global=4)
+    res = fit_parameters(cfg, data, FREE[:5], n_starts=1, n_global=4, search="starts")
     assert res.noise_scale == pytest.approx(np.sqrt(np.mean(res.residual ** 2)), rel=0.05)
     assert res.noise_scale > 50
     true = np.array([get_value(truth, p) for p in FREE[:5]])
@@ -153,7 +156,7 @@ def test_band_jackknife_widens_intervals_for_model_error(cfg):
     pairings, f = _pairings(cfg), np.geomspace(5.0, 350.0, 120)
     data = [FrfData(p, f, g) for p, g in zip(pairings, pairing_frf(truth, pairings, f),
                                              strict=True)]
-    res = fit_parameters(cfg, data, FREE[:5], n_starts=2)
+    res = fit_parameters(cfg, data, FREE[:5], n_starts=2, search="starts")
     jk = jackknife_intervals(res, data, 8)
     true = np.array([get_value(truth, p) for p in FREE[:5]])
     inside = [(r.interval[:, 0] <= true) & (true <= r.interval[:, 1]) for r in (res, jk)]

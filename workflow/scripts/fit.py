@@ -13,7 +13,8 @@ p, i, out = snakemake.params, snakemake.input, snakemake.output
 fit = p.cfg["fit"]
 pairings = [model.Pairing.from_config(q) for q in p.cfg["pairings"]]
 common = {"bounds": fit["bounds"], "factor": fit["factor"], "n_starts": fit["starts"],
-          "seed": p.cfg["seed"], "search": fit["search"], "alpha": fit["alpha"]}
+          "seed": p.cfg["seed"], "search": fit["search"], "alpha": fit["alpha"],
+          "accuracy": fit["accuracy"]}
 if fit["data"] == "modes":
     m = fit["modes"]
     system = next((q for q in pairings if q.name == m["system"]), None)

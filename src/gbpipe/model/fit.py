@@ -6,7 +6,7 @@ Residuals: for every FRF value, ``ln|G_model/G_data|`` [Np] and the wrapped phas
 damping error over its spread (:mod:`gbpipe.model.fit_modes`). Unknowns:
 ``θ = ln(p / p_prior)`` within bounds (:class:`gbpipe.model.parameters.FreeParameters`).
 Resonance fitting has local minima, so a global stage (Latin-hypercube starts, and
-differential evolution when they disagree or fit poorly: :mod:`gbpipe.model.fit_search`)
+differential evolution unless a start fits exact data to round-off: :mod:`gbpipe.model.fit_search`)
 precedes the local least squares. At the best optimum the Jacobian decides what the data
 determine (:mod:`gbpipe.model.identifiability`): a parameter of an undetermined direction
 is fixed at its prior and the others are fitted again, so the model still reproduces the
@@ -34,23 +34,28 @@ import numpy as np
 from gbpipe.errors import ConfigError, DataError
 from gbpipe.model.fit_modes import ModalData, ModalResiduals, ModeTable
 from gbpipe.model.fit_residuals import DELAY_UNIT, FrfResiduals, correlation_factor
-from gbpipe.model.fit_search import SEARCHES, evolution_run, local_run, start_runs
+from gbpipe.model.fit_search import SEARCHES, evolution_run, local_run, needs_evolution, start_runs
 from gbpipe.model.frf_data import FrfData
-from gbpipe.model.goodness import DEFAULT_ALPHA, PASSED, POOR, Goodness, chi_square_test
-from gbpipe.model.identifiability import Z95, Identifiability, analyse
+from gbpipe.model.goodness import DEFAULT_ALPHA, POOR, Goodness, chi_square_test
+from gbpipe.model.identifiability import Z95, Identifiability, analyse, describe_direction
 from gbpipe.model.keypath import overlay
 from gbpipe.model.parameters import DEFAULT_FACTOR, FreeParameters
 
 __all__ = ["FitResult", "fit_parameters", "correlation_factor", "DELAY_NAME",
-           "PARAMETER_STATUSES"]
+           "PARAMETER_STATUSES", "DEFAULT_ACCURACY"]
 
 #: Name of the delay unknown in the identifiability analysis; its unit in ``θ`` is 1 ms.
 DELAY_NAME = "delay"
 
 IDENTIFIED, POOR_FIT, CONDITIONAL, UNIDENTIFIABLE = ("identified", "poor", "conditional",
                                                      "unidentifiable")
+#: Default relative half-width of a 95 % interval that still counts as identified: the
+#: issue's "each identifiable parameter within 5 %" (a parameter known only to ±20 % is a
+#: combination the data leave open, not a result). ``fit.accuracy`` sets it.
+DEFAULT_ACCURACY = 0.05
 #: Parameter statuses: determined and the fit passed its test (or had no sigma to test);
-#: determined but the fit is poor; fitted with an undetermined partner held; held at prior.
+#: determined but the fit is poor; fitted with an undetermined partner held, or known only
+#: to worse than ``accuracy``; held at prior.
 PARAMETER_STATUSES = (IDENTIFIED, POOR_FIT, CONDITIONAL, UNIDENTIFIABLE)
 
 
@@ -71,8 +76,10 @@ class FitResult:
         ``identified`` (determined, and the fit passed its goodness test or had no sigma
         to test against); ``poor`` (determined, but the fit failed the test: its interval
         assumes a model the data reject); ``unidentifiable`` (fixed at its prior);
-        ``conditional`` (fitted with an undetermined partner held at its prior: its value
-        is one point of a family the data cannot tell apart, so it gets no interval).
+        ``conditional`` (fitted with an undetermined partner held at its prior, or in a
+        direction the data determine only to worse than ``accuracy``: its value is one
+        point of a family the data cannot tell apart to that accuracy, so it gets no
+        interval).
     correlation : ndarray, shape (n, n)
         Correlation of the identified parameters' log-values (NaN elsewhere).
     combinations : list of str
@@ -176,6 +183,25 @@ def _residuals(fp: FreeParameters, data: Sequence[FrfData] | ModalData,
     return FrfResiduals(fp, data, delay)
 
 
+def _weak_directions(weak: Identifiability, accuracy: float, involvement: float) -> list[str]:
+    """In words: each direction the data determine only to worse than ``±accuracy``."""
+    out = []
+    for k in np.nonzero(~weak.determined)[0][::-1]:
+        v = weak.directions[:, k]
+        # the direction's 95 % half-width in θ, as a relative factor
+        pm = 100 * np.expm1(Z95 * weak.noise_scale / max(weak.singular_values[k], 1e-300))
+        tail = (f"known only to ±{pm:.3g} % (95 %), worse than fit.accuracy "
+                f"±{100 * accuracy:g} %: conditional")
+        idx = [i for i in np.argsort(-np.abs(v)) if abs(v[i]) >= involvement]
+        if len(idx) == 1:
+            out.append(f"`{weak.names[idx[0]]}` is {tail}")
+        else:
+            # the sentence of a direction names what the data see; along it they see little
+            out.append(f"{describe_direction(v, weak.names, involvement)}; along the other "
+                       f"combination {tail}")
+    return out
+
+
 def _goodness(problem: FrfResiduals | ModalResiduals, theta: np.ndarray, n_unknowns: int,
               alpha: float) -> Goodness:
     r = problem.residual(theta)
@@ -189,6 +215,7 @@ def fit_parameters(cfg: Mapping[str, Any], data: Sequence[FrfData] | ModalData,
                    factor: float = DEFAULT_FACTOR, n_starts: int = 4,
                    n_global: int | None = None, seed: int = 0, noise_floor: float = 1e-3,
                    rtol: float = 1e-6, max_sd: float = 0.2, involvement: float = 0.1,
+                   accuracy: float = DEFAULT_ACCURACY,
                    delay: bool = False, max_delay: float = 1e-3, search: str = "auto",
                    alpha: float = DEFAULT_ALPHA) -> FitResult:
     """Fit config parameters to FRFs or a modal table; say what the data determine and
@@ -222,7 +249,15 @@ def fit_parameters(cfg: Mapping[str, Any], data: Sequence[FrfData] | ModalData,
         estimate's scatter, not its bias, and intervals widen when the residuals exceed
         it (the Birge ratio).
     rtol, max_sd, involvement : float
-        Identifiability thresholds of :func:`gbpipe.model.identifiability.analyse`.
+        Identifiability thresholds of :func:`gbpipe.model.identifiability.analyse`: a
+        direction below them is undetermined and one of its parameters held at its prior.
+    accuracy : float, default 0.05
+        Largest relative half-width of an identified parameter's 95 % interval [1]. A
+        direction the data determine, but only to worse than ``ln(1 + accuracy)/1.96``
+        in ``θ``, is weak: its parameters keep their fitted values (holding them at the
+        prior would leave the data unexplained) but are ``conditional``, without an
+        interval, and the combination is named; so every ``identified`` parameter is
+        known to ``±accuracy`` (before any jackknife widening).
     delay : bool, default False
         Also fit an input-to-output time delay [s] (the measurement chain's latency; FRFs
         only).
@@ -230,8 +265,8 @@ def fit_parameters(cfg: Mapping[str, Any], data: Sequence[FrfData] | ModalData,
         Bound of the delay [s]: ``-max_delay … max_delay``.
     search : {"auto", "starts", "evolution"}, default "auto"
         Global stage (:data:`gbpipe.model.fit_search.SEARCHES`): the starts; the starts,
-        then differential evolution when no two starts agreed or the best fails the
-        goodness test; or both always.
+        then differential evolution unless the best start fits to round-off; or both
+        always.
     alpha : float, default 0.01
         Level of the goodness-of-fit test (:func:`gbpipe.model.goodness.chi_square_test`).
 
@@ -251,6 +286,8 @@ def fit_parameters(cfg: Mapping[str, Any], data: Sequence[FrfData] | ModalData,
         raise ConfigError("fit.search", f"'{search}' is not one of {list(SEARCHES)}")
     if not 0 < alpha < 1:
         raise ConfigError("fit.alpha", f"{alpha} must lie in (0, 1)")
+    if not accuracy > 0:
+        raise ConfigError("fit.accuracy", f"{accuracy} must be > 0 (a relative half-width)")
     if delay and not max_delay > 0:
         raise ConfigError("fit.max_delay", f"{max_delay} s must be > 0")
     fp = FreeParameters.from_config(cfg, free, bounds, factor)
@@ -268,18 +305,13 @@ def fit_parameters(cfg: Mapping[str, Any], data: Sequence[FrfData] | ModalData,
     everything = np.ones(nu, dtype=bool)
     theta0 = np.zeros(nu)
     cost_prior = 0.5 * float(np.sum(problem.residual(theta0) ** 2))
-    runs, agreed = start_runs(problem, lo, hi, n_starts,
+    runs, _ = start_runs(problem, lo, hi, n_starts,
                               8 * nu if n_global is None else n_global, seed)
     theta, cost = min(runs, key=lambda r: r[1])
     how = "starts"
-    # with the data's sigma, a best run that passes the chi-square test leaves residuals
-    # at the noise level: no other minimum can fit the data visibly better. Without
-    # sigma, only the agreement of two starts says the minimum was found.
-    verdict = _goodness(problem, theta, nu, alpha).status
-    if search == "evolution" or (search == "auto" and (
-            verdict == POOR or (verdict != PASSED and not agreed))):
+    if needs_evolution(search, cost, cost_prior):
         # the starts may all have fallen into one wrong basin: cover the box
-        runs.append(evolution_run(problem, lo, hi, seed, theta))
+        runs.append(evolution_run(problem, lo, hi, seed))
         theta, cost = min(runs, key=lambda r: r[1])
         how = "starts + evolution"
 
@@ -308,6 +340,19 @@ def fit_parameters(cfg: Mapping[str, Any], data: Sequence[FrfData] | ModalData,
 
     goodness = _goodness(problem, theta, int(active.sum()), alpha)
     determined_status = POOR_FIT if goodness.status == POOR else IDENTIFIED
+    # determined, but weakly: a direction known only to worse than ±accuracy (95 %)
+    # (the structural ones are held above; these keep their fitted values: the data do
+    # move them off the prior, only not to the accuracy asked)
+    # (a poor fit identifies nothing anyway: its determined parameters stay ``poor``, their
+    # Birge-widened intervals are no measure of what the data would determine)
+    combinations = list(first.combinations)
+    if active.any() and determined_status == IDENTIFIED:
+        half = float(np.log1p(accuracy))
+        weak = analyse(problem.jacobian(theta)[:, active],
+                       [names[i] for i in np.nonzero(active)[0]], scale, rtol, half / Z95,
+                       involvement)
+        flagged[active] |= weak.flagged | (Z95 * final.sd > half)
+        combinations += _weak_directions(weak, accuracy, involvement)
     status = [UNIDENTIFIABLE if not active[i] else CONDITIONAL if flagged[i]
               else determined_status for i in range(nu)]
     ident = np.array([s == determined_status for s in status])
@@ -325,7 +370,7 @@ def fit_parameters(cfg: Mapping[str, Any], data: Sequence[FrfData] | ModalData,
     residual = problem.residual(theta)
     modes = problem.table(theta0, theta) if isinstance(problem, ModalResiduals) else None
     return FitResult(fp.paths, fp.prior, fp.values(theta[:n]), interval, status[:n],
-                     corr[:n, :n], first.combinations, first, cost_prior,
+                     corr[:n, :n], combinations, first, cost_prior,
                      0.5 * float(residual @ residual), residual, float(scale),
                      np.array([r[1] for r in runs]), problem.n_evaluations, tau, tau_iv,
                      fp.config(theta[:n]), goodness, how, modes)
