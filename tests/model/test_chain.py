@@ -234,10 +234,22 @@ def test_constrained_twice_disconnected_and_floating_parts_are_named():
     assert all(n in str(exc.value) for n in ("wheel", "pinion", "load"))
 
 
+def _campaign_keys() -> dict:
+    """What a config with the shaft line needs beside it: the simulated campaign's keys on
+    the chain's own motors and sensors (the paper's pairings, TSA versions, pulsating
+    ripple and fit are refused on it, rightly)."""
+    return {"fit": {"records": []},
+            "identify": {"versions": ["clean", "raw"],
+                         "pairings": [{"name": "Td_to_wm", "inputs": ["motor_torque_driver"],
+                                       "outputs": ["speed_motor"]}],
+                         "best": {"pairing": "Td_to_wm", "version": "raw"}},
+            "noise": {"motor_ripple": {"driver": {"broadband": 1.0, "pulsating": []},
+                                       "load": {"broadband": 1.0}}}}
+
+
 def test_config_drivetrain_section_drives_the_models(cfg):
     desc = shaft_line()
-    # no fit: the default fit pairings name the paper bench's signals (refused, rightly)
-    custom = validate(merge(cfg, {"drivetrain": desc, "fit": {"records": []}}))
+    custom = validate(merge(cfg, {"drivetrain": desc, **_campaign_keys()}))
     ss = model.bench_ss(custom, closed=False)
     assert ss.outputs == ["speed_motor", "speed_load", "torque_s4", "angle_flywheel"]
     model.check_stability(custom)
@@ -247,11 +259,11 @@ def test_config_drivetrain_section_drives_the_models(cfg):
     assert exc.value.field.startswith("drivetrain.motors[1].controller.k")
     with pytest.raises(ConfigError) as exc:
         validate(merge(cfg, {"drivetrain": _set(desc, ["gears", 0, "parent"], "x"),
-                             "fit": {"records": []}}))
+                             **_campaign_keys()}))
     assert exc.value.field == "drivetrain.gears[0].parent"
     dotted = _set(desc, ["disks", "gb.spare"], {"inertia": 1.0})
     with pytest.raises(ConfigError) as exc:
-        validate(merge(cfg, {"drivetrain": dotted, "fit": {"records": []}}))
+        validate(merge(cfg, {"drivetrain": dotted, **_campaign_keys()}))
     assert exc.value.field == "drivetrain.disks.gb.spare"
 
 

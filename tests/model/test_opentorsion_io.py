@@ -244,11 +244,26 @@ def test_config_section_from_a_file(cfg, tmp_path, monkeypatch):
     path = tmp_path / "asm.py"
     path.write_text(ASSEMBLY_FILE)
     monkeypatch.chdir(tmp_path)           # a relative file is read from the working dir
+    # a load motor on n3 (torque loop) and a drive motor on n0 (speed loop): what the
+    # simulated campaign of a config with this drivetrain needs
     section = {"opentorsion": "asm.py:bench",
-               "motors": [{"name": "load", "node": "n3"}],
+               "motors": [{"name": "load", "node": "n3", "sign": -1, "controller": {
+                   "type": "torque", "sensor": "torque_out", "kp": 0.1, "ki": 1.0,
+                   "feedforward": 1.0}},
+                   {"name": "drive", "node": "n0", "controller": {
+                       "type": "speed", "sensor": "speed_drive", "kp": 2.0, "ki": 10.0,
+                       "setpoint_weight": 0.5}}],
                "sensors": [{"name": "speed_load", "speed": "n3"},
+                           {"name": "speed_drive", "speed": "n0"},
                            {"name": "torque_out", "torque": "shaft1"}]}
-    custom = validate(merge(cfg, {"drivetrain": section, "fit": {"records": []}}))
+    campaign = {"fit": {"records": []},
+                "identify": {"versions": ["clean", "raw"],
+                             "pairings": [{"name": "Td_to_wl", "inputs": ["motor_torque_drive"],
+                                           "outputs": ["speed_load"]}],
+                             "best": {"pairing": "Td_to_wl", "version": "raw"}},
+                "noise": {"motor_ripple": {"drive": {"broadband": 1.0},
+                                           "load": {"broadband": 1.0}}}}
+    custom = validate(merge(cfg, {"drivetrain": section, **campaign}))
     dt = custom["drivetrain"]
     assert dt["opentorsion"] == {"source": "asm.py:bench",
                                  "sha256": hashlib.sha256(path.read_bytes()).hexdigest()}
@@ -260,8 +275,9 @@ def test_config_section_from_a_file(cfg, tmp_path, monkeypatch):
     t = asm.T(asm.E())
     want = [1j * w * (t @ np.linalg.solve(-w**2 * asm.M + 1j * w * asm.C + asm.K, t[3]))[3]
             for w in 2 * np.pi * f]
-    got = frf(ss, f)[:, ss.outputs.index("speed_load"), 0]
-    np.testing.assert_allclose(got, want, rtol=1e-9)
+    # the load motor brakes (sign -1): its torque input acts on n3 negatively
+    got = frf(ss, f)[:, ss.outputs.index("speed_load"), ss.inputs.index("motor_torque_load")]
+    np.testing.assert_allclose(-got, want, rtol=1e-9)
     # a fit's key path on the expanded section survives validation (nothing read again)
     path.write_text("raise RuntimeError('read twice')")
     fitted = validate(with_values(custom, {"drivetrain.shafts[1].stiffness": 7.5e3}))
