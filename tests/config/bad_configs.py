@@ -319,6 +319,8 @@ CASES: list[tuple[str, str, dict, str]] = [
      "fit.start (gearbox.housing.stiffness)"),
     ("fit_delay_bound_zero", "fit", {"fit": {"max_delay": 0.0}}, "fit.max_delay"),
     ("fit_jackknife_two_bands", "fit", {"fit": {"jackknife": 2}}, "fit.jackknife"),
+    ("fit_modes_table_missing", "fit",
+     {"fit": {"data": "modes", "modes": {"file": "nowhere/modes.csv"}}}, "fit.modes.file"),
     # closed-loop stability
     ("unstable_torque_ki", "stability", {"bench": {"torque_controller": {"ki": 500.0}}},
      "bench.torque_controller.ki"),

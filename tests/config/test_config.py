@@ -215,3 +215,14 @@ def test_schema_is_closed_everywhere():
     open_ = [p for p, node in found if node.get("additionalProperties") is not False
              and "/if" not in p]
     assert open_ == []
+
+
+def test_a_modal_table_the_workflow_makes_is_not_refused():
+    """``fit.modes.file`` under this run's results folder (``tables/modes_measured.csv``
+    of the modes stage) does not exist before the run: accepted at load, while a missing
+    table elsewhere is refused (tests/config/bad_configs.py)."""
+    for results in ("results", "study/run_a"):
+        over = {"results": results, "fit": {"data": "modes", "modes": {
+            "file": f"{results}/tables/modes_measured.csv"}}}
+        cfg = load(CONFIG, CI_CONFIG, over)
+        assert cfg["fit"]["modes"]["file"] == f"{results}/tables/modes_measured.csv"

@@ -213,6 +213,13 @@ def bench():
                        gear_elements=[g := ot.Gear(1, 0.1, 1.0), ot.Gear(2, 0.2, 2.0, parent=g)])
 
 
+def free_bench():
+    # the line free to turn (no disk spring to ground): what a simulated campaign needs
+    return ot.Assembly([ot.Shaft(0, 1, k=2.0e4, c=3.0), ot.Shaft(2, 3, k=1.0e4, c=2.0)],
+                       disk_elements=[ot.Disk(0, 0.5), ot.Disk(3, 1.0)],
+                       gear_elements=[g := ot.Gear(1, 0.1, 1.0), ot.Gear(2, 0.2, 2.0, parent=g)])
+
+
 def not_an_assembly():
     return 3
 
@@ -246,7 +253,7 @@ def test_config_section_from_a_file(cfg, tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)           # a relative file is read from the working dir
     # a load motor on n3 (torque loop) and a drive motor on n0 (speed loop): what the
     # simulated campaign of a config with this drivetrain needs
-    section = {"opentorsion": "asm.py:bench",
+    section = {"opentorsion": "asm.py:free_bench",
                "motors": [{"name": "load", "node": "n3", "sign": -1, "controller": {
                    "type": "torque", "sensor": "torque_out", "kp": 0.1, "ki": 1.0,
                    "feedforward": 1.0}},
@@ -264,8 +271,13 @@ def test_config_section_from_a_file(cfg, tmp_path, monkeypatch):
                 "noise": {"motor_ripple": {"drive": {"broadband": 1.0},
                                            "load": {"broadband": 1.0}}}}
     custom = validate(merge(cfg, {"drivetrain": section, **campaign}))
+    # the file's other assembly grounds the drive disk (Disk k): no steady rotation to
+    # start a simulated record from, refused at load with the element
+    with pytest.raises(ConfigError, match=r"drivetrain\.mounts.*0 rigid-body modes"):
+        validate(merge(cfg, {"drivetrain": {**section, "opentorsion": "asm.py:bench"},
+                             **campaign}))
     dt = custom["drivetrain"]
-    assert dt["opentorsion"] == {"source": "asm.py:bench",
+    assert dt["opentorsion"] == {"source": "asm.py:free_bench",
                                  "sha256": hashlib.sha256(path.read_bytes()).hexdigest()}
     # the plant of the built chain against the file's assembly, by numpy: the speed of
     # node 3 per torque on it (nodes 2 and 3 lie beyond one mesh: the same direction)

@@ -135,3 +135,21 @@ def test_tachometer_on_a_named_angle_sensor(cfg):
     np.testing.assert_allclose(ds.pulse_time.values, expected, atol=2e-6)
     with pytest.raises(ConfigError, match=r"tachometer\.sensor.*angle_load"):
         load(*BASE, {"drivetrain": {"sensors": sensors}, "tachometer": {"sensor": "speed_load"}})
+
+
+def test_a_line_that_cannot_turn_is_refused_at_load(cfg):
+    """A campaign starts in steady rotation: a mount on a rotating disk (no rigid-body
+    mode left) and a speed loop on a grounded node are refused with the element named,
+    before any simulation (the simulator would find no steady state)."""
+    base = cfg.explicit() if hasattr(cfg, "explicit") else copy.deepcopy(dict(cfg))
+    grounded = copy.deepcopy(base)
+    grounded["drivetrain"]["mounts"].append(
+        {"name": "brake", "node": "flywheel", "stiffness": 1e5, "damping_ratio": 0.05})
+    with pytest.raises(ConfigError, match=r"drivetrain\.mounts.*0 rigid-body modes"):
+        validate(grounded, check_stability=False)
+    on_housing = copy.deepcopy(base)
+    on_housing["drivetrain"]["sensors"].append({"name": "speed_housing", "speed": "housing"})
+    on_housing["drivetrain"]["motors"][0]["controller"]["sensor"] = "speed_housing"
+    with pytest.raises(ConfigError,
+                       match=r"drivetrain\.motors\[0\]\.controller\.sensor.*housing"):
+        validate(on_housing, check_stability=False)

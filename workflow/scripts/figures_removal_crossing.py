@@ -4,6 +4,7 @@ record, its random-only twin and every method's residual."""
 from gbpipe import io
 from gbpipe.figures.removal_plots import removal_crossing_figure
 from gbpipe.figures.style import formats
+from gbpipe.units import label_units
 
 snakemake = globals()["snakemake"]
 log = io.setup_log(snakemake.log[0])
@@ -17,5 +18,5 @@ with formats(p.formats):  # config figures.formats
     numbers = removal_crossing_figure(
         datasets, sig.values, random[p.signal].values,
         float(sweep.attrs["sample_rate"]), sweep.pulse_time.values, out,
-        pulses_per_rev=int(sweep.attrs["pulses_per_rev"]), units=sig.attrs["units"])
+        pulses_per_rev=int(sweep.attrs["pulses_per_rev"]), units=label_units(sig.attrs["units"]))
 log.info("removal at the worst crossing: %s", numbers)

@@ -194,9 +194,17 @@ def worst_crossing(datasets: Mapping[str, xr.Dataset]) -> tuple[int, int, bool]:
     change[first.band.values == "elsewhere"] = np.nan
     crossed = np.isfinite(first.crossing_order.transpose("family", "band", "rpm").values
                           ).any(axis=0)
-    pick = np.where(crossed, change, np.nan) if crossed.any() else change
+    pick = np.where(crossed, change, np.nan)
+    # no crossing, or none with a finite change (e.g. bins without waterfall frames): the
+    # worst mode-band bin
+    crossed_any = bool(np.isfinite(pick).any())
+    if not crossed_any:
+        pick = change
+    if not np.isfinite(pick).any():
+        raise DataError("change_db", "no mode-band bin has a finite level change: the "
+                        "sweep gives no waterfall frame in any rpm bin; lengthen the sweep")
     b, i = np.unravel_index(np.nanargmax(pick), pick.shape)
-    return int(b), int(i), bool(crossed.any())
+    return int(b), int(i), crossed_any
 
 
 def removal_crossing_figure(datasets: Mapping[str, xr.Dataset], record: np.ndarray,

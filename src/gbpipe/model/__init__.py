@@ -58,7 +58,6 @@ from gbpipe.model.stability import check_stability
 from gbpipe.model.stage import model_datasets
 from gbpipe.model.truth import (
     TORQUES,
-    identification_inputs,
     true_modes,
     truth_dataset,
     truth_model,
@@ -68,7 +67,7 @@ __all__ = [
     "gearbox_ss", "bench_ss", "check_stability", "truth_model", "true_modes",
     "truth_dataset", "TORQUES", "Mechanism", "Body", "Spring", "gearbox_mechanism",
     "bench_mechanism", "build_chain", "Chain", "paper_drivetrain", "bench_chain",
-    "identification_inputs", "model_datasets", "Pairing", "pairing_frf", "FrfData",
+    "model_datasets", "Pairing", "pairing_frf", "FrfData",
     "sigma_from_coherence", "sigma_from_bounds", "fit_parameters", "FitResult",
     "Identifiability", "analyse", "design_outputs", "fit_data", "fit_dataset",
     "parameter_unit", "jackknife_intervals", "assessable_band", "ModalData",

@@ -61,7 +61,8 @@ class Controller:
     setpoint_weight : float
         Weight of the speed reference in the P term [-].
     feedforward : float
-        Share of the torque reference applied directly [-].
+        Share of the torque reference applied directly [-] (torque controllers: default 1
+        in the description; 0 for the others, which have no torque reference).
     """
 
     type: str = "none"
@@ -283,9 +284,8 @@ def build_chain(desc: Mapping[str, Any], where: str = "drivetrain", *,
     check : bool, default True
         Run :func:`gbpipe.model.chain_checks.check_description` first and
         :func:`~gbpipe.model.chain_checks.check_inertia` on the mechanism. Only a caller
-        whose description was checked at load may skip it (the paper's generated
-        description inside a fit's model evaluations, where the checks were a fifth of
-        the cost).
+        whose description was checked at load may skip it (a fit's model evaluations,
+        where the checks were a fifth of the cost: :func:`gbpipe.model.bench_chain`).
 
     Returns
     -------

@@ -6,9 +6,12 @@ one gearbox with free ends are *descriptions* (docs/drivetrain.md) that
 
 Sign conventions. Every angle is positive in the direction of rotation of its own shaft
 in operation; the direction reversal of external meshes is not tracked (a torsional model
-only needs magnitudes of ratios). Shafts are listed upstream end first in the bench's
-normal power flow (driver → GB2 HSS → GB2 LSS → GB1 LSS → GB1 HSS → driven motor), so
-their torques are positive in operation.
+only needs magnitudes of ratios). The bench's couplings and LSS shaft are listed upstream
+end first in the bench's normal power flow (driver → GB2 HSS → GB2 LSS → GB1 LSS → GB1 HSS
+→ driven motor), so their torques are positive in operation. A gearbox's own shafts are
+listed HSS side first (as :func:`gearbox_drivetrain` lists them): upstream in GB2, the
+reducer, downstream in GB1, the multiplier, whose internal shaft torques (and transmission
+errors) are therefore negative in operation.
 
 Stage inertias in the config are either one number, lumped on the stage's input member
 (carrier or wheel) — the form of the paper's starting values — or a mapping of own-axis

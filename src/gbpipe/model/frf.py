@@ -37,7 +37,7 @@ from gbpipe.model.assembly import bench_chain
 from gbpipe.model.chain import Chain, Motor
 from gbpipe.model.statespace import chain_plant
 
-__all__ = ["Pairing", "MOTOR_INPUTS", "mechanical_frf", "plant_frf", "close_loops",
+__all__ = ["Pairing", "MOTOR_INPUTS", "mechanical_frf", "plant_frf", "close_loops_frf",
            "pairing_frf"]
 
 #: The paper bench's two plant inputs a pairing may use [N·m] (the recorded motor
@@ -150,7 +150,7 @@ def _chain_plant_frf(chain: Chain, f_hz: Any, outputs: Sequence[str]) -> np.ndar
     return mechanical_frf(plant, f_hz)
 
 
-def close_loops(g: np.ndarray, outputs: Sequence[str], pairing: Pairing,
+def close_loops_frf(g: np.ndarray, outputs: Sequence[str], pairing: Pairing,
                 motors: Sequence[Motor], f_hz: Any) -> np.ndarray:
     """A pairing's FRF from the open-loop plant FRF: the other motors' loops closed.
 
@@ -225,6 +225,6 @@ def pairing_frf(cfg: Mapping[str, Any], pairings: Sequence[Pairing],
     closed: dict[tuple[str, ...], np.ndarray] = {}
     for p in pairings:
         if p.inputs not in closed:
-            closed[p.inputs] = close_loops(g, outputs, Pairing("all", p.inputs,
+            closed[p.inputs] = close_loops_frf(g, outputs, Pairing("all", p.inputs,
                                                                tuple(outputs)), motors, f)
     return [closed[p.inputs][:, [outputs.index(o) for o in p.outputs]] for p in pairings]

@@ -20,7 +20,7 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.linalg import eigh
+from scipy.linalg import eigh, null_space
 
 __all__ = ["Body", "Spring", "Mechanism"]
 
@@ -201,14 +201,20 @@ class Mechanism:
         return float(self.mass_matrix[i, i])
 
     # -- eigen-analysis --------------------------------------------------------------
+    def rigid_modes(self) -> np.ndarray:
+        """Rigid-body modes: orthonormal columns over ``coords`` that twist no spring [rad].
+
+        The null space of the springs' twist maps (entries are gear ratios, not
+        stiffnesses): counted there, a soft mount's mode decades below the stiffest one is
+        never taken for rigid.
+        """
+        twist = np.array(list(self.twist_maps().values())).reshape(-1, len(self.coords))
+        return null_space(twist)
+
     def undamped_frequencies(self) -> np.ndarray:
         """Undamped natural frequencies [Hz] from ``K v = ω² M v`` (rigid modes dropped)."""
         w2 = eigh(self.stiffness_matrix, self.mass_matrix, eigvals_only=True)
-        # the rigid modes are the null space of the springs' twist maps (entries are gear
-        # ratios, not stiffnesses): counted there, a soft mount's mode decades below the
-        # stiffest one is never taken for rigid
-        twist = np.array(list(self.twist_maps().values())).reshape(-1, len(self.coords))
-        n_rigid = len(self.coords) - np.linalg.matrix_rank(twist)
+        n_rigid = self.rigid_modes().shape[1]
         return np.sqrt(np.clip(w2[n_rigid:], 0.0, None)) / (2 * np.pi)
 
 

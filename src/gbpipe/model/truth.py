@@ -32,22 +32,13 @@ from gbpipe.lti import NamedSS, frf, modes
 from gbpipe.model.assembly import bench_chain
 from gbpipe.model.statespace import chain_plant, close_loops
 
-__all__ = ["TORQUES", "identification_inputs", "truth_model", "true_modes", "truth_dataset"]
+__all__ = ["TORQUES", "truth_model", "true_modes", "truth_dataset"]
 
 #: The paper bench's motor torques usable as identification inputs -> closed-loop input
-#: that equals them when their own loop's gains are zero (:func:`identification_inputs`
-#: gives them for any drivetrain).
+#: that equals them when their own loop's gains are zero (a drivetrain's are
+#: ``motor_torque_<motor>`` -> ``disturbance_<motor>`` of its motors).
 TORQUES = {"motor_torque_driver": "disturbance_driver",
            "motor_torque_driven": "disturbance_driven"}
-
-
-def identification_inputs(cfg: Mapping[str, Any]) -> dict[str, str]:
-    """Motor torques usable as identification inputs -> their closed-loop disturbance.
-
-    ``motor_torque_<motor>`` -> ``disturbance_<motor>`` for every motor of the bench
-    (:func:`gbpipe.model.assembly.bench_chain`); :data:`TORQUES` for the paper's bench.
-    """
-    return {m.input: f"disturbance_{m.name}" for m in bench_chain(cfg).motors}
 
 
 def truth_model(cfg: Mapping[str, Any], inputs: Sequence[str],

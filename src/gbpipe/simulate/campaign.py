@@ -230,7 +230,7 @@ def test(cfg: Mapping[str, Any], test: str, profile: str,
         :data:`SIGNALS` clean and, with ``_measured``, measured-like; ``pulse_time`` [s]
         on ``pulse``. With a ``drivetrain:``, that chain's record instead
         (:func:`gbpipe.simulate.chain_campaign.simulate_chain`: its sensors and motor
-        torques, no pulses).
+        torques, and the pulses of ``tachometer.sensor`` when one is named).
 
     Raises
     ------

@@ -29,7 +29,7 @@ import xarray as xr
 from gbpipe.errors import ConfigError
 from gbpipe.lti import lsim
 from gbpipe.model import bench_chain, bench_ss
-from gbpipe.model.chain import Chain
+from gbpipe.model.chain import Chain, Motor
 from gbpipe.model.statespace import loop_names
 from gbpipe.simulate.steady import steady_state
 from gbpipe.simulate.tacho import pulse_times, tooth_errors
@@ -77,7 +77,28 @@ def chain_loops(chain: Chain) -> dict[str, str]:
                               f"{kind} profile); found {len(named)} ({', '.join(named)}): "
                               f"give one motor 'controller: {{type: {kind}, ...}}'")
         out[kind] = named[0]
+    _check_rotation(chain, next(m for m in chain.motors if m.name == out["speed"]))
     return out
+
+
+def _check_rotation(chain: Chain, speed_motor: Motor) -> None:
+    # a record starts in steady rotation (gbpipe.simulate.steady): the line must turn as
+    # one rigid-body mode, and the speed loop's sensor must see that rotation
+    mech = chain.mechanism
+    rigid = mech.rigid_modes()
+    if rigid.shape[1] != 1:
+        raise ConfigError("drivetrain.mounts", f"the drivetrain has {rigid.shape[1]} rigid-body "
+                          "modes; a simulated campaign starts in steady rotation and needs "
+                          "a line that turns as one (exactly one): a mount on a rotating "
+                          "disk (e.g. an openTorsion Disk with k) holds it to the ground: "
+                          "mount only housings, rings and torque arms")
+    node = chain.speed_sensors.get(speed_motor.controller.sensor)
+    gain = 0.0 if node is None else float(mech.T[mech.body_index[node]] @ rigid[:, 0])
+    if abs(gain) <= 1e-9 * np.abs(rigid[:, 0]).max():
+        raise ConfigError(f"drivetrain.motors[{speed_motor.index}].controller.sensor",
+                          f"'{speed_motor.controller.sensor}' on {node} does not turn with "
+                          "the line (a housing or grounded node): put the speed loop's "
+                          "sensor on a rotating disk")
 
 
 def chain_ripple(cfg: Mapping[str, Any], chain: Chain) -> dict[str, float]:

@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.linalg import null_space
 
+from gbpipe.errors import StageError
 from gbpipe.lti import NamedSS
 
 __all__ = ["steady_state"]
@@ -35,15 +36,16 @@ def steady_state(ss: NamedSS, u0: np.ndarray, omega0: float, *,
 
     Raises
     ------
-    RuntimeError
-        Not exactly one rigid-body mode, or no steady state (inputs that accelerate).
+    StageError
+        Not exactly one rigid-body mode, or no steady state (inputs that accelerate); the
+        campaign's load checks refuse such drivetrains first.
     """
     n_q = sum(s.startswith("angle[") for s in ss.states)
     n = ss.A.shape[0]
     K = -ss.A[n_q:2 * n_q, :n_q]          # M⁻¹K: same null space as K
     rigid = null_space(K)
     if rigid.shape[1] != 1:
-        raise RuntimeError(f"expected one rigid-body mode, found {rigid.shape[1]}")
+        raise StageError(f"expected one rigid-body mode, found {rigid.shape[1]}")
     if speed_output is None:
         r = rigid[:, 0] / rigid[ss.states.index("angle[driver_motor]"), 0]
     else:
@@ -59,5 +61,5 @@ def steady_state(ss: NamedSS, u0: np.ndarray, omega0: float, *,
     x0, *_ = np.linalg.lstsq(E, b, rcond=None)
     resid = np.abs(E @ x0 - b).max()
     if resid > 1e-6 * max(1.0, np.abs(b).max()):
-        raise RuntimeError(f"no steady state found (residual {resid:.3g})")
+        raise StageError(f"no steady state found (residual {resid:.3g})")
     return x0
