@@ -38,7 +38,7 @@ from scipy.linalg import cho_solve_banded, cholesky_banded
 from gbpipe.harmonics.checks import as_count, as_positive, as_signal
 from gbpipe.harmonics.crossings import as_modes, crossing_pairs, modal_carriers
 from gbpipe.harmonics.removal_inputs import Families, removal_inputs
-from gbpipe.harmonics.shaft_angles import checked_twist
+from gbpipe.harmonics.shaft_angles import checked_twist, second_lines
 from gbpipe.harmonics.tacho import AngleMethod
 
 __all__ = ["AmplitudeBasis", "family_groups", "residual_regression"]
@@ -311,14 +311,10 @@ def residual_regression(x: np.ndarray, fs: float, pulse_times: np.ndarray,
     if twist is not None:
         tw = checked_twist(twist, xs.shape[0])[rec.span]
         angles.append(rec.theta + tw)
-        twist_phase = as_positive(twist_phase, "twist_phase", "rad")
         # the phase change the envelope cannot follow: fitting such an order on the
         # tachometer angle alone leaves about that share of its line
-        unfollowed = float(np.abs(amp.unfollowed(times, tw)).max())
-        on_second = np.concatenate([np.full(o.size, twist_families is None
-                                            or name in twist_families)
-                                    for name, o in fam.items()])
-        on_second &= orders * unfollowed > twist_phase
+        on_second = second_lines(fam, twist_families,
+                                 float(np.abs(amp.unfollowed(times, tw)).max()), twist_phase)
     lines = [(0, orders), (1, orders[on_second])] if on_second.any() else [(0, orders)]
     n_lines = sum(o.size for _, o in lines)
     carriers_of: list[tuple[int, np.ndarray, list[tuple[int, int]]]] = []
