@@ -302,9 +302,11 @@ def crossings(cfg: dict, methods: list[str]) -> None:
     h = float(h["default"] if isinstance(h, dict) else h)
     for rate in CROSSING_RATES:
         lim = {name: [bound(c, rate, b, h) for b in bins] for name, c in limits.items()}
-        print(f"at {rate:g} rpm/s, isolated-crossing limit (band change in {bins} rpm bins, "
-              f"h = {h:g} s): " + "; ".join(f"{n} " + "/".join(f"{v:+.2f}" for v in ls)
-                                            for n, ls in lim.items())
+        print(f"at {rate:g} rpm/s, isolated-crossing limit (band change in "
+              f"{', '.join(f'{b:.0f}' for b in bins)} rpm bins, mean / worst seed, h = "
+              f"{h:g} s): " + "; ".join(f"{n} " + ", ".join(f"{m:+.2f}/{w:+.2f}"
+                                                          for m, w in ls)
+                                        for n, ls in lim.items())
               + " dB; worst crossing bin per method: " + ", ".join(
                   f"{m} {per_rate[m, rate]:.2f}" for m in worst) + " dB", flush=True)
 
