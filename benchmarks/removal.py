@@ -44,6 +44,10 @@ GB1 HSS angle within 0.6 s of the ramp's start and elsewhere: the lines of gearb
 of the driver motor are locked to the GB2 HSS angle, the tachometer sits on the GB1 HSS,
 and during the speed loop's transient at the start of the ramp their phase against the
 tachometer angle moves by ``order x twist``.
+The crossing sweeps end with the isolated-crossing limit of the regression's model at
+each sweep rate (``benchmarks/removal_bound.py``) beside each method's worst crossing
+bin. ``--second-angle none`` runs the regression on the tachometer angle alone (no
+``removal.regression.second_angle``).
 ``--gearboxes gb1`` runs the crossing sweeps with the excitation of gearbox 1 alone
 (every gearbox line then locked to the tachometer's shaft; the converters' pulsating
 torque as configured): what the removal reads when each gearbox line is referred to its
