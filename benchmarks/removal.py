@@ -71,8 +71,7 @@ import tracemalloc
 from pathlib import Path
 
 import numpy as np
-from removal_bound import bound
-from removal_bound import crossings as bound_crossings
+from removal_bound import print_limits
 
 from gbpipe.config import load
 from gbpipe.harmonics import (
@@ -299,20 +298,9 @@ def crossings(cfg: dict, methods: list[str]) -> None:
         f"{f} {max(w['leftover'][f] for w in worst.values()):.1f}" for f in fams)
         + " (target >= 60)")
     # the limit of the regression's model at an isolated crossing, in the bins of these
-    # sweeps (benchmarks/removal_bound.py), beside each method's worst crossing bin
-    bins = sorted({(r1 - r0) / cfg["spectra"]["metric_rpm_bins"] for r0, r1 in CROSSING_RANGES})
-    limits = bound_crossings(cfg)
-    h = cfg["removal"]["regression"]["knot_spacing"]
-    h = float(h["default"] if isinstance(h, dict) else h)
-    for rate in CROSSING_RATES:
-        lim = {name: [bound(c, rate, b, h) for b in bins] for name, c in limits.items()}
-        print(f"at {rate:g} rpm/s, isolated-crossing limit (band change in "
-              f"{', '.join(f'{b:.0f}' for b in bins)} rpm bins, mean / worst seed, h = "
-              f"{h:g} s): " + "; ".join(f"{n} " + ", ".join(f"{m:+.2f}/{w:+.2f}"
-                                                          for m, w in ls)
-                                        for n, ls in lim.items())
-              + " dB; worst crossing bin per method: " + ", ".join(
-                  f"{m} {per_rate[m, rate]:.2f}" for m in worst) + " dB", flush=True)
+    # sweeps, beside each method's worst crossing bin
+    print_limits(cfg, [(r1 - r0) / cfg["spectra"]["metric_rpm_bins"]
+                       for r0, r1 in CROSSING_RANGES], CROSSING_RATES, per_rate)
 
 
 def main() -> None:

@@ -134,6 +134,27 @@ def rate_for(target_db: float, rates: np.ndarray, bins: np.ndarray) -> str:
     return f"{ok:g} rpm/s" if ok is not None else f"none (from {min(rates):g} rpm/s)"
 
 
+def print_limits(cfg: dict, bins: list[float], rates: tuple[float, ...],
+                 worst: dict[tuple[str, float], float]) -> None:
+    """Print, per sweep rate, the limit at each crossing of ``cfg``'s bench in rpm bins of
+    ``bins`` widths (mean / worst seed), beside ``worst[(method, rate)]``, each method's
+    worst crossing bin [dB] on the bench records (``benchmarks/removal.py --crossings``)."""
+    bins = sorted(set(bins))
+    h = cfg["removal"]["regression"]["knot_spacing"]
+    h = float(h["default"] if isinstance(h, dict) else h)
+    limits = crossings(cfg)
+    methods = sorted({m for m, _ in worst})
+    for rate in rates:
+        lim = {name: [bound(c, rate, b, h) for b in bins] for name, c in limits.items()}
+        print(f"at {rate:g} rpm/s, isolated-crossing limit (band change in "
+              f"{', '.join(f'{b:.0f}' for b in bins)} rpm bins, mean / worst seed, h = "
+              f"{h:g} s): " + "; ".join(f"{n} " + ", ".join(f"{m:+.2f}/{w:+.2f}"
+                                                          for m, w in ls)
+                                        for n, ls in lim.items())
+              + " dB; worst crossing bin per method: " + ", ".join(
+                  f"{m} {worst[m, rate]:.2f}" for m in methods) + " dB", flush=True)
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--config", default=str(Path(__file__).resolve().parents[1] / "config"

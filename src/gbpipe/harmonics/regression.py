@@ -23,7 +23,9 @@ Where an order crosses a structural mode, its line is the excitation times the m
 FRF along the order's frequency; with ``modes`` the regressors also hold that swept
 modal response (:mod:`gbpipe.harmonics.crossings`), with one global coefficient per
 order and mode: a dense border of the banded normal equations, eliminated by its Schur
-complement.
+complement. With ``twist`` (a second line-carrying shaft's angle against the
+tachometer's, :mod:`gbpipe.harmonics.shaft_angles`) the orders whose phase the twist moves
+faster than their envelope follows are fitted on both angles.
 """
 
 from __future__ import annotations
