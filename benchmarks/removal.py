@@ -44,6 +44,10 @@ GB1 HSS angle within 0.6 s of the ramp's start and elsewhere: the lines of gearb
 of the driver motor are locked to the GB2 HSS angle, the tachometer sits on the GB1 HSS,
 and during the speed loop's transient at the start of the ramp their phase against the
 tachometer angle moves by ``order x twist``.
+The crossing sweeps end with the isolated-crossing limit of the regression's model at
+each sweep rate (``benchmarks/removal_bound.py``) beside each method's worst crossing
+bin. ``--second-angle none`` runs the regression on the tachometer angle alone (no
+``removal.regression.second_angle``).
 ``--gearboxes gb1`` runs the crossing sweeps with the excitation of gearbox 1 alone
 (every gearbox line then locked to the tachometer's shaft; the converters' pulsating
 torque as configured): what the removal reads when each gearbox line is referred to its
@@ -67,12 +71,14 @@ import tracemalloc
 from pathlib import Path
 
 import numpy as np
+from removal_bound import print_limits
 
 from gbpipe.config import load
 from gbpipe.harmonics import (
     crossing_marks,
     excitation_families,
     method_params,
+    record_params,
     shaft_angle,
     shaft_speed,
     structural_modes,
@@ -87,9 +93,10 @@ from gbpipe.units import RPM_PER_RAD_S
 
 ROOT = Path(__file__).resolve().parents[1]
 
-def records(cfg: dict) -> tuple[np.ndarray, np.ndarray, np.ndarray, float, dict]:
-    """Full and random-only sweep signal, pulses, sample rate, and the angle figures
-    (:func:`angle_figures`); checks the seeds."""
+def records(cfg: dict) -> tuple[np.ndarray, np.ndarray, np.ndarray, float, dict, object]:
+    """Full and random-only sweep signal, pulses, sample rate, the angle figures
+    (:func:`angle_figures`) and the full sweep (its speeds give the regression's second
+    angle, as in the workflow); checks the seeds."""
     full = sweep(cfg)
     rnd = sweep(random_only(cfg))
     sig = cfg["spectra"]["signal"]
@@ -101,7 +108,7 @@ def records(cfg: dict) -> tuple[np.ndarray, np.ndarray, np.ndarray, float, dict]
     x = full[sig].values.astype(float)
     fs = float(full.attrs["sample_rate"])
     return x, rnd[sig].values.astype(float), full.pulse_time.values, fs, angle_figures(
-        full, float(cfg["sweep"]["settle"]))
+        full, float(cfg["sweep"]["settle"])), full
 
 
 def angle_figures(full, settle: float) -> dict:
@@ -212,8 +219,9 @@ def score_sweep(cfg: dict, methods: list[str]) -> dict:
     freq, zeta = modes(bench_ss(cfg).A)
     keep = (freq > MODE_MIN_FREQUENCY) & (freq < spec["mode_max_frequency"])
     fz = np.column_stack([freq[keep], zeta[keep]])
-    params = {m: method_params(cfg["removal"], m, families, fz) for m in METHODS}
-    x, n, pulses, fs, angles = records_quiet(cfg)
+    x, n, pulses, fs, angles, full = records_quiet(cfg)
+    params = {m: record_params(method_params(cfg["removal"], m, families, fz), full)
+              for m in METHODS}
     h = x - n
     watch = structural_modes(freq, MODE_MIN_FREQUENCY, spec["mode_max_frequency"],
                              spec["mode_half_width"])
@@ -254,6 +262,7 @@ def tacho_gearbox_only(cfg: dict) -> dict:
 def crossings(cfg: dict, methods: list[str]) -> None:
     """The crossing sweeps: every method on each, then the worst over all of them."""
     worst: dict[str, dict] = {}
+    per_rate: dict[tuple[str, float], float] = {}  # (method, rate) -> worst crossing [dB]
     print(f"{'sweep':>24} {'method':>10} {'cross [dB]':>10} {'any [dB]':>8} {'CPU [s]':>7} "
           f"{'peak [MB]':>9}  worst crossing; worst-bin leftover per family [dB]")
     for (r0, r1), rate, seed in itertools.product(CROSSING_RANGES, CROSSING_RATES,
@@ -272,6 +281,7 @@ def crossings(cfg: dict, methods: list[str]) -> None:
             w = worst.setdefault(name, {"cross": 0.0, "change": 0.0, "cpu": 0.0,
                                         "peak": 0.0, "leftover": {}})
             w["cross"] = max(w["cross"], v["cross"])
+            per_rate[name, rate] = max(per_rate.get((name, rate), 0.0), v["cross"])
             w["change"] = max(w["change"], v["change"])
             w["cpu"] += v["cpu"]
             w["peak"] = max(w["peak"], v["peak"])
@@ -287,6 +297,10 @@ def crossings(cfg: dict, methods: list[str]) -> None:
     print("best method per family, worst bin over all sweeps [dB]: " + ", ".join(
         f"{f} {max(w['leftover'][f] for w in worst.values()):.1f}" for f in fams)
         + " (target >= 60)")
+    # the limit of the regression's model at an isolated crossing, in the bins of these
+    # sweeps, beside each method's worst crossing bin
+    print_limits(cfg, [(r1 - r0) / cfg["spectra"]["metric_rpm_bins"]
+                       for r0, r1 in CROSSING_RANGES], CROSSING_RATES, per_rate)
 
 
 def main() -> None:
@@ -299,10 +313,15 @@ def main() -> None:
     ap.add_argument("--gearboxes", choices=["both", "gb1"], default="both",
                     help="crossing sweeps: gb1 = excitation of the tachometer's gearbox "
                          "alone")
+    ap.add_argument("--second-angle", choices=["config", "none"], default="config",
+                    help="none: the regression on the tachometer angle alone (as before "
+                         "removal.regression.second_angle)")
     ap.add_argument("--peer-bandwidth", type=float, default=1.0,
                     help="rota-order VKF bandwidth [Hz] (doubled once if it refuses)")
     args = ap.parse_args()
     cfg = load(args.config)
+    if args.second_angle == "none":
+        cfg["removal"]["regression"]["second_angle"] = []
     if args.crossings:
         crossings(tacho_gearbox_only(cfg) if args.gearboxes == "gb1" else cfg,
                   args.methods)
@@ -312,9 +331,10 @@ def main() -> None:
     freq, zeta = modes(bench_ss(cfg).A)
     keep = (freq > MODE_MIN_FREQUENCY) & (freq < spec["mode_max_frequency"])
     # each method with its parameters of the config's removal section (as the workflow)
-    params = {m: method_params(cfg["removal"], m, families,
-                               np.column_stack([freq[keep], zeta[keep]])) for m in METHODS}
-    x, n, pulses, fs, _ = records(cfg)
+    x, n, pulses, fs, _, full = records(cfg)
+    params = {m: record_params(method_params(cfg["removal"], m, families,
+                                             np.column_stack([freq[keep], zeta[keep]])),
+                               full) for m in METHODS}
     h = x - n
     watch = structural_modes(freq, MODE_MIN_FREQUENCY, spec["mode_max_frequency"],
                              spec["mode_half_width"])

@@ -41,7 +41,7 @@ for n, ((test, profile), path, twin) in enumerate(
                                    envelope_modes(bench, p.spectra))
             ds = method_residuals(record, p.signals, method, params, families, p.keep_below)
             leftover = method_residuals(harmonic, p.signals, method, params, families,
-                                        p.keep_below)
+                                        p.keep_below, angle_record=record)
             versions[method] = ds = record_separation(ds, harmonic, random, bench, families,
                                                       p.spectra, leftover)
             log.info("[%d/%d] %s: removed %s by %s from %d signals; worst leftover %.1f dB, "

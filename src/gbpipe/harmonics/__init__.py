@@ -25,6 +25,7 @@ Removal beyond TSA (issue 16):
 ``regression``      angle-domain least-squares regression, slowly varying amplitudes
                     (and the swept modal response of orders crossing a mode)
 ``crossings``       order/mode crossings: half-power bands, swept modal carriers, marks
+``shaft_angles``    the second line-carrying shaft's angle: twist from the two speeds
 ``drs``             discrete/random separation in the angle domain
 ``cepstrum``        cepstral editing: comb liftering of the families' rahmonics
 ``removal``         every method behind one signature (``METHODS``: tsa, vkf, ...)
@@ -47,6 +48,7 @@ from gbpipe.harmonics.comparison import (
     harmonic_record,
     method_params,
     method_residuals,
+    record_params,
     record_separation,
     removal_rows,
 )
@@ -67,6 +69,7 @@ from gbpipe.harmonics.regression import residual_regression
 from gbpipe.harmonics.removal import METHODS as REMOVAL_METHODS
 from gbpipe.harmonics.removal import family_cycles, remove_harmonics, residual_tsa
 from gbpipe.harmonics.separation import separation_metrics
+from gbpipe.harmonics.shaft_angles import shaft_twist
 from gbpipe.harmonics.spectra import order_spectrum, order_spectrum_vs_rpm, power_spectrum_vs_rpm
 from gbpipe.harmonics.stage import (
     envelope_modes,
@@ -109,6 +112,7 @@ __all__ = [
     # workflow stages
     "remove", "waterfalls", "variant_metrics", "sweep_waterfalls", "tsa_variant",
     "record_residuals", "split_residuals", "compare_method", "method_params",
+    "record_params", "shaft_twist",
     "envelope_modes",
     "method_residuals", "removal_rows", "record_separation", "harmonic_record",
 ]

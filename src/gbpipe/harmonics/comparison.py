@@ -3,6 +3,8 @@ by the exact separation metric.
 
 * :func:`method_params` -- a method's keyword arguments from the ``removal`` config
   section, fitted to the families at hand;
+* :func:`record_params` -- those of one record: the regression's second angle (the twist
+  of the second line-carrying shaft against the tachometer's, from the record's speeds);
 * :func:`compare_method` -- rule ``removal``: one method on the sweep and on its known
   harmonic part (its wall time and memory logged), and
   :func:`gbpipe.harmonics.separation_metrics` against
@@ -29,15 +31,16 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
-from gbpipe.errors import DataError
+from gbpipe.errors import ConfigError, DataError
 from gbpipe.harmonics.crossings import crossing_lines
 from gbpipe.harmonics.metrics import Families
 from gbpipe.harmonics.removal import remove_harmonics
 from gbpipe.harmonics.separation import separation_metrics
+from gbpipe.harmonics.shaft_angles import shaft_twist
 from gbpipe.harmonics.stage import envelope_modes, split_residuals, watched_modes
-from gbpipe.io import measured_signal
+from gbpipe.io import longest_segment, measured_signal
 
-__all__ = ["method_params", "compare_method", "removal_rows", "method_residuals",
+__all__ = ["method_params", "record_params", "compare_method", "removal_rows", "method_residuals",
            "harmonic_record", "record_separation"]
 
 log = logging.getLogger(__name__)
@@ -73,6 +76,32 @@ def method_params(removal_cfg: Mapping[str, Any], method: str, families: Familie
         params["knot_spacing"] = {k: v for k, v in spacing.items()
                                   if k in families or k == "default"}
     return params
+
+
+def record_params(params: Mapping[str, Any], record: xr.Dataset) -> dict[str, Any]:
+    """A method's keyword arguments for one record: the regression's ``second_angle``
+    (the speed signals of the tachometer's shaft and of the second line-carrying shaft)
+    becomes its ``twist`` (:func:`gbpipe.harmonics.shaft_twist` of the record's measured
+    speeds, rigid ratio 1: the two HSS of the back-to-back bench); an empty one, none.
+
+    Raises
+    ------
+    ConfigError
+        ``removal.regression.second_angle`` names a signal the record does not hold.
+    """
+    out = dict(params)
+    speeds = out.pop("second_angle", None)
+    if not speeds:
+        return out
+    try:
+        tacho, other = (np.asarray(measured_signal(record, s).values, dtype=float)
+                        for s in speeds)
+    except DataError as err:
+        raise ConfigError("removal.regression.second_angle",
+                          f"{list(speeds)}: {err}; name the speed signals of the "
+                          "tachometer's shaft and of the second shaft, or [] for none") from err
+    out["twist"] = shaft_twist(tacho, other, float(record.attrs["sample_rate"]))
+    return out
 
 
 def compare_method(sweep: xr.Dataset, random_only: xr.Dataset, bench: xr.Dataset,
@@ -128,13 +157,14 @@ def compare_method(sweep: xr.Dataset, random_only: xr.Dataset, bench: xr.Dataset
     modes = watched_modes(bench, spec)
     log.info("%s on %d samples, families %s, params %s", method, x.size, list(families),
              dict(params))
+    run = record_params(params, sweep)  # the second angle from the sweep's own speeds
     start = time.perf_counter()
-    r = remove_harmonics(method, x, fs, pulses, families, ppr, **params)
+    r = remove_harmonics(method, x, fs, pulses, families, ppr, **run)
     runtime = time.perf_counter() - start
     h = x - n
     # the second run (on the harmonic part) is traced: numpy allocates through tracemalloc
     tracemalloc.start()
-    rh = remove_harmonics(method, h, fs, pulses, families, ppr, **params)
+    rh = remove_harmonics(method, h, fs, pulses, families, ppr, **run)
     peak = tracemalloc.get_traced_memory()[1]
     tracemalloc.stop()
     ds = separation_metrics(r, n, h, fs, pulses, families, modes,
@@ -226,7 +256,8 @@ def removal_rows(datasets: Sequence[xr.Dataset]) -> list[dict[str, Any]]:
 
 def method_residuals(record: xr.Dataset, names: Sequence[str], method: str,
                      params: Mapping[str, Any], families: Families,
-                     keep_below: float) -> xr.Dataset:
+                     keep_below: float, angle_record: xr.Dataset | None = None,
+                     ) -> xr.Dataset:
     """Measured-like signals of a record after one removal method (``removal_tests``).
 
     Parameters
@@ -240,14 +271,22 @@ def method_residuals(record: xr.Dataset, names: Sequence[str], method: str,
         Its keyword arguments (:func:`method_params`).
     families : mapping str -> orders
         The families removed [HSS orders].
+    angle_record : xarray.Dataset, optional
+        The record whose measured speeds give the regression's second angle
+        (:func:`record_params`; default ``record``): the record itself when ``record`` is
+        its harmonic part (:func:`harmonic_record`), whose speeds are no speeds.
 
     Returns
     -------
     xarray.Dataset
         One variable per name (time); attributes ``method``, ``families``, ``params``.
     """
+    # the piece split_residuals works on, so that the twist has the samples of x
+    run = record_params(params, longest_segment(record if angle_record is None
+                                                else angle_record))
+
     def remove(x: np.ndarray, fs: float, pulses: np.ndarray, ppr: int) -> np.ndarray:
-        return remove_harmonics(method, x, fs, pulses, families, ppr, **params)
+        return remove_harmonics(method, x, fs, pulses, families, ppr, **run)
 
     lowest = min(float(o) for orders in families.values() for o in orders)
     ds = split_residuals(record, names, remove, lowest, keep_below,

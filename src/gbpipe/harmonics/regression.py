@@ -23,21 +23,24 @@ Where an order crosses a structural mode, its line is the excitation times the m
 FRF along the order's frequency; with ``modes`` the regressors also hold that swept
 modal response (:mod:`gbpipe.harmonics.crossings`), with one global coefficient per
 order and mode: a dense border of the banded normal equations, eliminated by its Schur
-complement.
+complement. With ``twist`` (a second line-carrying shaft's angle against the
+tachometer's, :mod:`gbpipe.harmonics.shaft_angles`) the orders whose phase the twist moves
+faster than their envelope follows are fitted on both angles.
 """
 
 from __future__ import annotations
 
-from collections.abc import Collection, Mapping, Sequence
+from collections.abc import Collection, Iterator, Mapping, Sequence
 from typing import Literal
 
 import numpy as np
-from scipy.interpolate import BSpline
+from scipy.interpolate import BSpline, make_lsq_spline
 from scipy.linalg import cho_solve_banded, cholesky_banded
 
 from gbpipe.harmonics.checks import as_count, as_positive, as_signal
 from gbpipe.harmonics.crossings import as_modes, crossing_pairs, modal_carriers
 from gbpipe.harmonics.removal_inputs import Families, removal_inputs
+from gbpipe.harmonics.shaft_angles import checked_twist, second_lines
 from gbpipe.harmonics.tacho import AngleMethod
 
 __all__ = ["AmplitudeBasis", "family_groups", "residual_regression"]
@@ -106,6 +109,15 @@ class AmplitudeBasis:
         pick[first + np.arange(self.support), np.arange(self.support)] = 1.0
         return BSpline(self.knots, pick, self.degree, extrapolate=False)(tc), first
 
+    def unfollowed(self, t: np.ndarray, y: np.ndarray) -> np.ndarray:
+        """``y`` minus its least-squares fit in the basis: what an amplitude in this basis
+        cannot follow of a phase ``y(t)`` (unit of ``y``)."""
+        if self.kind == "legendre":
+            u = 2.0 * (t - self.t_start) / (self.t_end - self.t_start) - 1.0
+            return y - np.polynomial.legendre.legval(
+                u, np.polynomial.legendre.legfit(u, y, self.degree))
+        return y - make_lsq_spline(t, y, self.knots, self.degree)(t)
+
 
 def _blocks(times: np.ndarray, breaks: np.ndarray, block: int) -> np.ndarray:
     """Sample cuts: every ``block`` samples and at every break, so that no block
@@ -130,6 +142,24 @@ def _local_design(basis: AmplitudeBasis, t: np.ndarray, phases: np.ndarray,
 def _border_design(carriers: np.ndarray) -> np.ndarray:
     """Border columns of one block: real and imaginary part of each modal carrier."""
     return np.stack([carriers.real, carriers.imag], axis=2).reshape(carriers.shape[0], -1)
+
+
+def _phases(angles: Sequence[np.ndarray], lines: Sequence[tuple[int, np.ndarray]],
+            a: int, b: int) -> np.ndarray:
+    """Phases [rad] of every line on samples ``a:b``: each group of orders on its
+    shaft's angle, shape (b - a, lines)."""
+    return np.concatenate([np.outer(angles[k][a:b], ords) for k, ords in lines], axis=1)
+
+
+def _carriers(angles: Sequence[np.ndarray], fs: float, modes: np.ndarray,
+              carriers_of: Sequence[tuple[int, np.ndarray, Sequence[tuple[int, int]]]],
+              cuts: np.ndarray) -> Iterator[np.ndarray]:
+    """The modal carriers of every angle's (order, mode) pairs, block by block, side by
+    side (each on the angle of the shaft its order is locked to)."""
+    gens = [modal_carriers(angles[k], fs, ords, modes, pairs, cuts)
+            for k, ords, pairs in carriers_of if pairs]
+    for _ in range(len(cuts) - 1):
+        yield np.concatenate([next(g) for g in gens], axis=1) if gens else np.empty((0, 0))
 
 
 def family_groups(families: Families, spacing: Mapping[str, float]
@@ -165,6 +195,9 @@ def residual_regression(x: np.ndarray, fs: float, pulse_times: np.ndarray,
                         modes: Sequence[Sequence[float]] | None = None,
                         mode_reach: float = 3.0,
                         modal_families: Collection[str] | None = None,
+                        twist: np.ndarray | None = None,
+                        twist_families: Collection[str] | None = None,
+                        twist_phase: float = 0.1,
                         block: int = 8192, t0: float = 0.0,
                         method: AngleMethod = "pchip") -> np.ndarray:
     """Remove order families by joint least-squares regression on the shaft angle.
@@ -208,6 +241,25 @@ def residual_regression(x: np.ndarray, fs: float, pulse_times: np.ndarray,
         coefficient assumes the family's excitation constant over the record: a family
         whose excitation follows the operating point (the converters' pulsating torque on
         ramp tests with steps) is fitted better by its envelope alone.
+    twist : array_like, shape (n,), optional
+        Angle of a second line-carrying shaft minus the tachometer shaft's at every sample
+        of ``x`` [rad] (:func:`gbpipe.harmonics.shaft_twist` of the two shafts' speeds,
+        or the difference of two tachometer angles). The orders of ``twist_families`` are
+        then fitted on both angles, each with its own envelope (and modal carriers):
+        a line locked to the second shaft changes phase against the tachometer by
+        ``order x twist``, which an envelope on the tachometer angle follows only as
+        fast as its knots (docs/removal.md, "A second angle per gearbox").
+    twist_families : collection of str, optional
+        The families whose lines are also locked to the second shaft (default: all of
+        them, as on a back-to-back bench where both gearboxes and both motors carry every
+        family).
+    twist_phase : float
+        Of those, an order gets its second line only where the twist moves its phase by
+        more than this beyond what its envelope follows, ``order x max|twist - fit of
+        twist in the basis|`` [rad]: elsewhere the tachometer angle's envelope takes the
+        line to better than ``twist_phase`` of its amplitude (0.1 rad: -20 dB) at the
+        twist's fastest change, and a second envelope would only take more of the
+        broadband response.
     block : int
         Samples per block of the normal-equation accumulation (memory per block).
 
@@ -233,8 +285,9 @@ def residual_regression(x: np.ndarray, fs: float, pulse_times: np.ndarray,
             out = residual_regression(out, fs, pulse_times, group, pulses_per_rev,
                                       basis=basis, knot_spacing=spacing, degree=degree,
                                       ridge=ridge, modes=modes, mode_reach=mode_reach,
-                                      modal_families=modal_families,
-                                      block=block, t0=t0, method=method)
+                                      modal_families=modal_families, twist=twist,
+                                      twist_families=twist_families,
+                                      twist_phase=twist_phase, block=block, t0=t0, method=method)
         return out
     xa = np.asarray(x, dtype=float)
     multi = xa.ndim == 2
@@ -253,7 +306,20 @@ def residual_regression(x: np.ndarray, fs: float, pulse_times: np.ndarray,
     # matrix and its factor are built once, and only the right-hand sides are per channel
     xs = xa if multi else xa[:, None]
     y = xs[rec.span]
-    pairs: list[tuple[int, int]] = []
+    # the lines: every order on the tachometer angle, and those of the families locked
+    # to a second shaft again on its angle (theta + twist); per line its angle's index
+    angles = [rec.theta]
+    on_second = np.zeros(orders.size, dtype=bool)
+    if twist is not None:
+        tw = checked_twist(twist, xs.shape[0])[rec.span]
+        angles.append(rec.theta + tw)
+        # the phase change the envelope cannot follow: fitting such an order on the
+        # tachometer angle alone leaves about that share of its line
+        on_second = second_lines(fam, twist_families,
+                                 float(np.abs(amp.unfollowed(times, tw)).max()), twist_phase)
+    lines = [(0, orders), (1, orders[on_second])] if on_second.any() else [(0, orders)]
+    n_lines = sum(o.size for _, o in lines)
+    carriers_of: list[tuple[int, np.ndarray, list[tuple[int, int]]]] = []
     m = np.empty((0, 2))
     if modes is not None and len(modes):  # the swept modal response of orders near a mode
         m = as_modes(modes)
@@ -262,9 +328,12 @@ def residual_regression(x: np.ndarray, fs: float, pulse_times: np.ndarray,
         carried = np.concatenate([np.full(o.size, modal_families is None
                                           or name in modal_families)
                                   for name, o in fam.items()])
-        pairs = [(k, j) for k, j in crossing_pairs(
-            orders, (float(rate.min()), float(rate.max())), m, mode_reach) if carried[k]]
-    per_function = 2 * orders.size + 1
+        for a, ords in lines:
+            keep = carried if a == 0 else carried[on_second]
+            carriers_of.append((a, ords, [(k, j) for k, j in crossing_pairs(
+                ords, (float(rate.min()), float(rate.max())), m, mode_reach) if keep[k]]))
+    n_pairs = sum(len(p) for _, _, p in carriers_of)
+    per_function = 2 * n_lines + 1
     n_unknown = amp.size * per_function
     width = amp.support * per_function  # columns touched by one block
     ab = np.zeros((width, n_unknown))
@@ -272,7 +341,7 @@ def residual_regression(x: np.ndarray, fs: float, pulse_times: np.ndarray,
     # the modal carriers' coefficients are global (the mode's residue times the order's
     # excitation, which the carrier's ring-up pins down where it crosses the mode): a
     # dense border of the banded normal matrix
-    n_border = 2 * len(pairs)
+    n_border = 2 * n_pairs
     cross_nb = np.zeros((n_unknown, n_border))
     gram_b = np.zeros((n_border, n_border))
     rhs_b = np.zeros((n_border, xs.shape[1]))
@@ -281,9 +350,9 @@ def residual_regression(x: np.ndarray, fs: float, pulse_times: np.ndarray,
     # (i - j, first column + j), in one indexed addition per block
     low_i, low_j = np.tril_indices(width)
     band_row = low_i - low_j
-    carriers = modal_carriers(rec.theta, fs, orders, m, pairs, cuts)
+    carriers = _carriers(angles, fs, m, carriers_of, cuts)
     for a, b in zip(cuts[:-1], cuts[1:], strict=True):  # blocks: memory per block only
-        design, c0 = _local_design(amp, times[a:b], np.outer(rec.theta[a:b], orders))
+        design, c0 = _local_design(amp, times[a:b], _phases(angles, lines, a, b))
         gram = design.T @ design
         ab[band_row, c0 + low_j] += gram[low_i, low_j]
         rhs[c0:c0 + width] += design.T @ y[a:b]
@@ -311,9 +380,9 @@ def residual_regression(x: np.ndarray, fs: float, pulse_times: np.ndarray,
     coef[::per_function] = 0.0  # the slow mean is fitted, never subtracted
     out = xs.copy()
     seg = out[rec.span]
-    carriers = modal_carriers(rec.theta, fs, orders, m, pairs, cuts)  # again, from the start
+    carriers = _carriers(angles, fs, m, carriers_of, cuts)  # again, from the start
     for a, b in zip(cuts[:-1], cuts[1:], strict=True):
-        design, c0 = _local_design(amp, times[a:b], np.outer(rec.theta[a:b], orders))
+        design, c0 = _local_design(amp, times[a:b], _phases(angles, lines, a, b))
         seg[a:b] -= design @ coef[c0:c0 + width]
         if n_border:
             seg[a:b] -= _border_design(next(carriers)) @ coef_b
