@@ -114,6 +114,22 @@ def test_modal_envelope_needs_and_passes_the_bench_modes():
     np.testing.assert_array_equal(got["modes"], [[62.0, 0.02]])
 
 
+@pytest.mark.parametrize("spacing, carried", [
+    ({"default": 2.0, "motor": 1.0}, ["shaft", "mesh1"]),   # the coarsest group: all gears
+    ({"default": 1.0, "shaft": 2.0}, ["shaft"]),            # only the 2 s group
+    ({"default": 1.0, "motor": 2.0}, []),                   # the last group is the motor's
+])
+def test_modal_carriers_only_in_the_coarsest_knot_group(spacing, carried):
+    """An earlier (finer) knot group's carriers would meet the later groups' lines
+    unfitted: only the families of the largest spacing get carriers (never ``motor``)."""
+    families = {"shaft": [1.0], "mesh1": [1.8], "motor": [12.0]}
+    cfg = {"regression": {"knot_spacing": spacing, "modal_envelope": True}}
+    got = method_params(cfg, "regression", families, np.array([[62.0, 0.02]]))
+    largest = max(spacing.get(f, spacing["default"]) for f in families)
+    assert all(spacing.get(f, spacing["default"]) == largest for f in got["modal_families"])
+    assert got["modal_families"] == carried
+
+
 def test_method_residuals_keep_the_low_part_and_remove_the_lines(sw):
     # a test record: a slow step (far below the lowest order's frequency) under the lines;
     # the split adds the low part back unchanged, so only the lines go

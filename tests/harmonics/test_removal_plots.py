@@ -121,11 +121,13 @@ def test_metrics_without_leftover_are_refused(tmp_path):
                                               "caption": tmp_path / "f.rst"})
 
 
-def _with_crossing(ds: xr.Dataset, bins: list[int]) -> xr.Dataset:
-    """``ds`` with the shaft order 2 crossing a 30 Hz mode in the mode band in ``bins``."""
+def _with_crossing(ds: xr.Dataset, bins: list[int], order_value: float = 2.0
+                   ) -> xr.Dataset:
+    """``ds`` with a shaft order crossing the 30 Hz mode (inside the 26-34 Hz mode band)
+    in ``bins``."""
     order = np.full((2, 2, 3), np.nan)
     mode = np.full((2, 2, 3), np.nan)
-    order[1, 0, bins], mode[1, 0, bins] = 2.0, 30.0
+    order[1, 0, bins], mode[1, 0, bins] = order_value, 30.0
     return ds.assign(crossing_order=(("family", "band", "rpm"), order),
                      crossing_mode=(("family", "band", "rpm"), mode))
 
@@ -150,7 +152,8 @@ def test_crossing_zoom_reads_the_residual_against_the_random_only_twin(tmp_path)
     pulses = (-f0 + np.sqrt(f0**2 + 2 * rate * k)) / rate
     noise = np.random.default_rng(4).standard_normal(t.size)
     record = noise + 3.0 * np.cos(2 * theta)
-    base = _with_crossing(_metrics("tsa", *CASES["tsa"]), [1])
+    # bin 1 (1200-1400 rpm): order 18/13 is at 30 Hz at 1300 rpm, the bin's centre
+    base = _with_crossing(_metrics("tsa", *CASES["tsa"]), [1], order_value=18 / 13)
     datasets = {"same": base.assign(residual=("time", noise)),
                 "double": base.assign(residual=("time", 2 * noise))}
     numbers = removal_plots.removal_crossing_figure(
@@ -159,7 +162,23 @@ def test_crossing_zoom_reads_the_residual_against_the_random_only_twin(tmp_path)
         fine_bins=6)
     assert numbers["same zoom worst change dB"] == pytest.approx(0.0, abs=1e-9)
     assert numbers["double zoom worst change dB"] == pytest.approx(20 * np.log10(2.0))
-    assert (numbers["order"], numbers["mode Hz"]) == (2.0, 30.0)
+    assert (numbers["order"], numbers["mode Hz"]) == (18 / 13, 30.0)
     assert (numbers["rpm lower"], numbers["rpm upper"]) == (1000.0, 1600.0)
-    assert "order 2 through the 30.0 Hz mode at 900 rev/min" in (
+    # the caption's crossing speed (mode / order) lies inside the zoom
+    assert "order 1.38462 through the 30.0 Hz mode at 1300 rev/min" in (
         tmp_path / "crossing.rst").read_text()
+
+
+def test_worst_crossing_without_a_finite_crossing_bin_falls_back():
+    """Crossing bins whose change is NaN everywhere (no waterfall frame): the worst
+    mode-band bin instead, marked as no crossing; nothing finite at all is refused."""
+    datasets = {m: _with_crossing(_metrics(m, *case), [1]) for m, case in CASES.items()}
+    datasets = {m: ds.assign(change_db=ds.change_db.where(ds.rpm != ds.rpm[1]))
+                for m, ds in datasets.items()}
+    band, rpm, crossed = removal_plots.worst_crossing(datasets)
+    worst = np.nanmax(np.stack([np.abs(ds.change_db.values[:1]) for ds in datasets.values()]),
+                      axis=0)
+    assert (band, rpm, crossed) == (0, int(np.nanargmax(worst)), False)
+    empty = {m: ds.assign(change_db=ds.change_db * np.nan) for m, ds in datasets.items()}
+    with pytest.raises(DataError, match="change_db"):
+        removal_plots.worst_crossing(empty)

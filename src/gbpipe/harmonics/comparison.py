@@ -34,6 +34,7 @@ import xarray as xr
 from gbpipe.errors import ConfigError, DataError
 from gbpipe.harmonics.crossings import crossing_lines
 from gbpipe.harmonics.metrics import Families
+from gbpipe.harmonics.regression import family_groups
 from gbpipe.harmonics.removal import remove_harmonics
 from gbpipe.harmonics.separation import separation_metrics
 from gbpipe.harmonics.shaft_angles import shaft_twist
@@ -62,6 +63,10 @@ def method_params(removal_cfg: Mapping[str, Any], method: str, families: Familie
         ``modal_envelope`` is on and no ``modes`` are given.
     """
     params = dict(removal_cfg[method])
+    spacing = params.get("knot_spacing")
+    if isinstance(spacing, Mapping):
+        params["knot_spacing"] = {k: v for k, v in spacing.items()
+                                  if k in families or k == "default"}
     if params.pop("modal_envelope", False):
         if modes is None:
             raise ValueError("removal.regression.modal_envelope needs the bench modes: "
@@ -69,12 +74,13 @@ def method_params(removal_cfg: Mapping[str, Any], method: str, families: Familie
         params["modes"] = np.asarray(modes, dtype=float)
         # the carrier's one coefficient needs a constant excitation: the gear and shaft
         # excitation is; the converters' pulsating torque follows the operating point
-        # (on the ramp tests' steps a carrier left 31-34 dB of it, its envelope 43-56 dB)
-        params["modal_families"] = [f for f in families if f != "motor"]
-    spacing = params.get("knot_spacing")
-    if isinstance(spacing, Mapping):
-        params["knot_spacing"] = {k: v for k, v in spacing.items()
-                                  if k in families or k == "default"}
+        # (on the ramp tests' steps a carrier left 31-34 dB of it, its envelope 43-56 dB).
+        # Carriers only in the last (coarsest) knot group: an earlier group's carriers
+        # would meet the later groups' lines unfitted (residual_regression, ``modes``)
+        spacing = params.get("knot_spacing")
+        last = (family_groups(families, spacing)[-1][1] if isinstance(spacing, Mapping)
+                else families)
+        params["modal_families"] = [f for f in last if f != "motor"]
     return params
 
 
