@@ -22,6 +22,15 @@ is the rounding of the matrix products, of the size of the float64 sample-by-sam
 recursion's own (benchmarks/simulate.py: about 3e-11 relative at eigenvector condition up
 to 1e9; on the bench, whose torques are differences of absolute angles, 4e-10 against the
 float64 recursion's 3e-9).
+
+Strongly non-normal ``Ad`` (transient growth: ``||Ad^j||`` far above ``||Ad||``) breaks
+both premises: the extended-precision chain ``Ad^(j+1) = Ad Ad^j`` cancels (its entries
+are far smaller than those of ``|Ad| |Ad^j|``), and the float64 products by the block
+powers amplify their rounding. Such systems (cancellation factor above that of a normal
+matrix, see :func:`_cancels`) take the precise path: powers exact to the last bit of
+``np.longdouble`` (:mod:`gbpipe.lti.exact_powers`) and the whole block-start hierarchy in
+extended precision; 1000 times below the float64 recursion's error on eigenvector
+condition 1e6, at a few times the cost.
 See docs/architecture.md, "Physics".
 """
 
@@ -32,6 +41,7 @@ from typing import Any
 import numpy as np
 from scipy.signal import cont2discrete
 
+from gbpipe.lti.exact_powers import exact_powers
 from gbpipe.memo import ArrayMemo, array_key
 
 __all__ = ["dlsim", "lsim"]
@@ -65,8 +75,9 @@ def block_length(n: int, m: int, p: int) -> int:
 
 
 def _lifted(a: np.ndarray, b: np.ndarray, c: np.ndarray, d: np.ndarray, L: int
-            ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Observability O (L p, n), Toeplitz T (L p, L m), reachability R (n, L m), Ad^L.
+            ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, bool]:
+    """Observability O (L p, n), Toeplitz T (L p, L m), reachability R (n, L m), Ad^L,
+    and whether the powers cancel (then exact: the precise path, see :func:`_cancels`).
 
     Computed in extended precision (``np.longdouble``, cheap: L n³ flops once) and
     rounded once: a power ``Ad^L`` accumulated in float64 carries a systematic error that
@@ -79,6 +90,9 @@ def _lifted(a: np.ndarray, b: np.ndarray, c: np.ndarray, d: np.ndarray, L: int
     n, m = b.shape
     p = c.shape[0]
     powers = _powers(a, L)
+    precise = _cancels(a, powers)
+    if precise:
+        powers = _powers(a, L, exact=True)
     # C = I (a simulation of the states) multiplies nothing: skip its L products
     identity = p == n and np.array_equal(c, np.eye(n))
     obs = (powers[:L] if identity else c @ powers[:L]).reshape(L * p, n).astype(float)
@@ -89,26 +103,50 @@ def _lifted(a: np.ndarray, b: np.ndarray, c: np.ndarray, d: np.ndarray, L: int
     blocks = markov[np.maximum(lag, 0)] * (lag >= 0)[:, :, None, None]  # (L, L, p, m)
     toep = blocks.transpose(0, 2, 1, 3).reshape(L * p, L * m)
     reach = apb[::-1].transpose(1, 0, 2).reshape(n, L * m).astype(float)  # [.., Ad Bd, Bd]
-    return obs, toep, reach, powers[L]
+    return obs, toep, reach, powers[L], precise
 
 
-def _powers(a: np.ndarray, count: int) -> np.ndarray:
+def _cancels(a: np.ndarray, powers: np.ndarray) -> bool:
+    """Whether the products ``a a^j`` of the power chain cancel more than a normal matrix's.
+
+    The cancellation factor of one product is ``max |a| |a^j| / max |a^(j+1)|`` (1 for a
+    nonnegative matrix, a diagonal, a Jordan block; at most about sqrt(n) for a normal
+    matrix in any orthonormal basis, whose n terms of a sum add with random signs; about
+    the eigenvector condition times the damping for transient growth). Above sqrt(n) the
+    extended-precision chain and the float64 block products lose digits that the
+    sample-by-sample recursion keeps.
+    """
+    a_abs = np.abs(a.astype(float))
+    n = a.shape[0]
+    for j in range(len(powers) - 1):
+        bound = np.max(a_abs @ np.abs(powers[j].astype(float)))
+        size = np.max(np.abs(powers[j + 1].astype(float)))
+        if bound > np.sqrt(n) * size:
+            return True
+    return False
+
+
+def _powers(a: np.ndarray, count: int, exact: bool = False) -> np.ndarray:
     """``a^0 .. a^count`` in extended precision, shape (count + 1, n, n), read-only
-    (remembered for the last few matrices: see ``_POWERS``)."""
+    (remembered for the last few matrices: see ``_POWERS``); `exact`: exact to the last
+    bit of ``np.longdouble`` (:func:`gbpipe.lti.exact_powers.exact_powers`), where the
+    chain cancels."""
     a = np.asarray(a, dtype=np.longdouble)
 
     def compute() -> np.ndarray:
+        if exact:
+            return exact_powers(a, count)
         powers = np.empty((count + 1, *a.shape), dtype=np.longdouble)
         powers[0] = np.eye(a.shape[0])
         for k in range(1, count + 1):
             powers[k] = a @ powers[k - 1]
         return powers
 
-    return _POWERS((count, array_key(a)), compute)
+    return _POWERS((count, exact, array_key(a)), compute)
 
 
 def _lifted_cached(a: np.ndarray, b: np.ndarray, c: np.ndarray, d: np.ndarray, L: int
-                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, bool]:
     """:func:`_lifted`, remembered for the last few systems (see ``_LIFTED``)."""
     return _LIFTED((L, array_key(a, b, c, d)), lambda: _lifted(a, b, c, d, L))
 
@@ -153,9 +191,10 @@ def dlsim(a: np.ndarray, b: np.ndarray, c: np.ndarray, d: np.ndarray, u: np.ndar
     L = block_length(n, m, p)
     nfull = n_samp // L
     if nfull:
-        obs, toep, reach, a_l = _lifted_cached(a, b, c, d, L)
+        obs, toep, reach, a_l, precise = _lifted_cached(a, b, c, d, L)
         ub = u[:nfull * L].reshape(nfull, L * m)
-        xs, x = _block_starts(a_l, ub @ reach.T, x)
+        xs, x = _block_starts(a_l, ub @ reach.T, x, precise)
+        xs, x = np.asarray(xs, dtype=float), np.asarray(x, dtype=float)
         # One product gives a block's outputs from [x_b, U_b]: Y_b = [O T] [x_b; U_b].
         w = np.hstack([obs, toep]).T
         per_chunk = max(1, _CHUNK_SAMPLES // L)
@@ -171,7 +210,7 @@ def dlsim(a: np.ndarray, b: np.ndarray, c: np.ndarray, d: np.ndarray, u: np.ndar
     return (y, x) if return_state else y
 
 
-def _block_starts(a_l: np.ndarray, f: np.ndarray, x: np.ndarray
+def _block_starts(a_l: np.ndarray, f: np.ndarray, x: np.ndarray, precise: bool
                   ) -> tuple[np.ndarray, np.ndarray]:
     """States ``x_b`` of ``x_{b+1} = a_l x_b + f_b`` from ``x_0 = x``, and the next one.
 
@@ -179,34 +218,37 @@ def _block_starts(a_l: np.ndarray, f: np.ndarray, x: np.ndarray
     that all start from zero and advance together (one small matrix product per step
     for all segments, where a loop over blocks would pay the Python call overhead per
     block); the true segment-start states follow the same recursion one level up, and
-    each segment adds ``a_l^j`` times its start state.
+    each segment adds ``a_l^j`` times its start state. `precise` (powers that cancel,
+    see :func:`_cancels`): exact powers and every level in extended precision; the
+    states are then returned in extended precision.
     """
     nb, n = f.shape
+    work = np.longdouble if precise else float
     if nb <= max(_MIN_LIFTED, 2 * _SEGMENT):
         # The top of the hierarchy is the only recursion that carries rounding from block
         # to block: run it in extended precision (a few dozen steps).
-        xs = np.empty_like(f)
+        xs = np.empty((nb, n), dtype=work)
         xl = np.asarray(x, dtype=np.longdouble)
         for k in range(nb):
             xs[k] = xl
             xl = a_l @ xl + f[k]
-        return xs, xl.astype(float)
+        return xs, xl
     K = _SEGMENT
     n_seg = nb // K
-    powers = _powers(a_l, K)
-    a_t = np.ascontiguousarray(a_l.astype(float).T)
+    powers = _powers(a_l, K, exact=precise)
+    a_t = np.ascontiguousarray(a_l.astype(work).T)
     fs = f[:n_seg * K].reshape(n_seg, K, n)
-    xs = np.empty((nb, n))
+    xs = np.empty((nb, n), dtype=work)
     seg = xs[:n_seg * K].reshape(n_seg, K, n)
-    z = np.zeros((n_seg, n))
+    z = np.zeros((n_seg, n), dtype=work)
     for j in range(K):  # all segments at once, from zero
         seg[:, j] = z
         z = z @ a_t + fs[:, j]
-    starts, x_end = _block_starts(powers[K], z, x)
+    starts, x_end = _block_starts(powers[K], z, x, precise)
     # segment s, step j: + a_l^j starts[s]; as one product with [a_l^0 ... a_l^(K-1)]^T
-    seg += (starts @ powers[:K].astype(float).transpose(2, 0, 1).reshape(n, K * n)
-            ).reshape(n_seg, K, n)
-    tail, x_end = _block_starts(a_l, f[n_seg * K:], x_end)
+    seg += (starts.astype(work) @ powers[:K].astype(work).transpose(2, 0, 1).reshape(
+        n, K * n)).reshape(n_seg, K, n)
+    tail, x_end = _block_starts(a_l, f[n_seg * K:], x_end, precise)
     xs[n_seg * K:] = tail
     return xs, x_end
 
