@@ -20,8 +20,9 @@ Round-off floor: on the issue's families (random non-normal lightly damped syste
 eigenvector condition 1e5 to 1e6 and slowest pole |lambda| = 0.9995, near-repeated modes,
 defective and near-defective ``A``, integrators; several seeds each), the error of `lsim`
 divided by the error of the float64 recursion on the same ZOH matrices, both against the
-extended-precision reference (issue 35: <= 3 on every case). The speed table adds one
-such system (the precise path, exact powers) beside the bench.
+extended-precision reference (issue 35: <= 3 on every case); transient growth at
+condition 1e2 and 2e2 straddles the switch between the fast and the precise path. The
+speed table adds one such system (the precise path, exact powers) beside the bench.
 
 Usage: ``OMP_NUM_THREADS=1 python benchmarks/simulate.py [n_samples]``
 """
@@ -208,8 +209,9 @@ def accuracy_table(n_samples: int = 20_000) -> float:
 
 def floor_table(n_samples: int = 20_000) -> float:
     """Print error / float64 floor on the issue's families; return the largest ratio."""
+    # cond 1e2 and 2e2: around the switch to the precise path (simulation._cancels)
     cases = [(f"transient growth, cond {c:.0e}, seed {s}", transient_growth(c, seed=s))
-             for c in (1e5, 5e5, 1e6) for s in range(4)]
+             for c in (1e2, 2e2, 1e5, 5e5, 1e6) for s in range(4)]
     cases += [(f"near-repeated modes, cond target {c:.0e}, seed {s}", ill_conditioned(c, seed=s))
               for c in (1e5, 1e8) for s in (1, 2)]
     cases += [("Jordan block (defective), size 6", jordan()),
