@@ -15,7 +15,7 @@ import scipy.signal
 from lti_systems import DT, integrators, reference_zoh, relative_error, transient_growth
 
 from gbpipe.lti import NamedSS, lsim
-from gbpipe.lti.exact_powers import exact_powers
+from gbpipe.lti.exact_powers import exact_krylov, exact_power
 
 N_SAMPLES = 8000
 
@@ -48,20 +48,30 @@ def test_error_within_three_times_float64_floor(system):
     assert relative_error(y, ref) <= 3.0 * relative_error(y64, ref)
 
 
+def _fraction_product(x: list[list[Fraction]], y: list[list[Fraction]]) -> list[list[Fraction]]:
+    return [[sum(x[i][k] * y[k][j] for k in range(len(y))) for j in range(len(y[0]))]
+            for i in range(len(x))]
+
+
 def test_exact_powers_equal_rational_arithmetic():
-    """Powers of a strongly non-normal matrix against exact fractions, rounded once."""
+    """a^12 and a^k b of a strongly non-normal matrix against exact fractions."""
     rng = np.random.default_rng(3)
     q1, q2 = (np.linalg.qr(rng.standard_normal((4, 4)))[0] for _ in range(2))
     v = q1 @ np.diag([1.0, 1e-2, 1e-4, 1e-6]) @ q2  # eigenvector condition 1e6
     a = v @ np.diag([0.999, 0.998, -0.997, 0.5]) @ np.linalg.inv(v)
-    powers = exact_powers(a, 12)
+    b = rng.standard_normal((4, 2))
     exact = [[Fraction(x) for x in row] for row in a]
+    krylov = [[[Fraction(x) for x in row] for row in b]]
     p = [[Fraction(int(i == j)) for j in range(4)] for i in range(4)]
     for _ in range(12):
-        p = [[sum(exact[i][k] * p[k][j] for k in range(4)) for j in range(4)] for i in range(4)]
+        p = _fraction_product(exact, p)
+        krylov.append(_fraction_product(exact, krylov[-1]))
     ref = np.array([[float(x) for x in row] for row in p])
+    ref_krylov = np.array([[[float(x) for x in row] for row in term] for term in krylov])
     # long double truncation is 2^-63 relative to each entry; the float64 view adds 2^-53
-    np.testing.assert_allclose(powers[12].astype(float), ref, rtol=2.3e-16, atol=0)
+    np.testing.assert_allclose(exact_power(a, 12).astype(float), ref, rtol=2.3e-16, atol=0)
+    np.testing.assert_allclose(exact_krylov(a, b, 12).astype(float), ref_krylov,
+                               rtol=2.3e-16, atol=0)
     # the float64 chain loses most digits here: the exactness is what the test shows
     chain = np.linalg.matrix_power(a, 12)
     assert np.abs(chain - ref).max() > 1e3 * np.finfo(float).eps * np.abs(ref).max()

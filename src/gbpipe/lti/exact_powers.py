@@ -1,4 +1,5 @@
-"""Matrix powers correct to the last bit of ``np.longdouble``, by integer arithmetic.
+"""Matrix powers and Krylov products correct to the last bit of ``np.longdouble``, by
+integer arithmetic.
 
 The chain ``A^(k+1) = A A^k`` in floating point loses digits where its products cancel:
 an entry of ``A A^k`` far smaller than the same entry of ``|A| |A^k|`` (the transient
@@ -8,7 +9,7 @@ matrix is an integer matrix times a power of two (fixed point, ``_BITS`` bits be
 largest entry): Python's unbounded integers multiply and add exactly (numpy object
 arrays), and each product is truncated once to ``_BITS`` bits. The truncation, 2^-160 of
 the largest entry, stays far below the 2^-64 rounding of ``np.longdouble`` even after a
-cancellation by 2^90, so the powers are the exact powers of ``A``, rounded once.
+cancellation by 2^90, so the results are the exact ones, rounded once.
 
 Used by :mod:`gbpipe.lti.simulation` for the systems whose powers cancel.
 """
@@ -17,7 +18,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["exact_powers"]
+__all__ = ["exact_krylov", "exact_power"]
 
 # Bits kept below the largest entry of each power (see the module docstring).
 _BITS = 160
@@ -55,38 +56,65 @@ def _to_longdouble(ints: np.ndarray, s: int) -> np.ndarray:
     return out
 
 
-def exact_powers(a: np.ndarray, count: int) -> np.ndarray:
-    """``a^0 .. a^count`` exact, rounded once to ``np.longdouble``.
+def _product(x: tuple[np.ndarray, int], y: tuple[np.ndarray, int]) -> tuple[np.ndarray, int]:
+    """Exact product of two fixed-point matrices, truncated to _BITS bits (relative to
+    the largest entry of the product)."""
+    p = x[0] @ y[0]  # exact: Python ints
+    s_p = x[1] + y[1]
+    drop = max(max(abs(int(v)).bit_length() for v in p.flat) - _BITS, 0)
+    # floor of p 2^-drop: an error below one unit of 2^-_BITS of the largest entry
+    return (p >> drop, s_p - drop) if drop else (p, s_p)
+
+
+def exact_power(a: np.ndarray, k: int) -> np.ndarray:
+    """``a^k`` exact, rounded once to ``np.longdouble`` (binary powering: about
+    2 log2(k) exact products of n^3 integer operations each).
 
     Parameters
     ----------
     a : ndarray, shape (n, n)
         Square matrix (float64 or longdouble; its value is taken exactly).
-    count : int
-        Highest power.
+    k : int
+        Power, >= 1.
 
     Returns
     -------
-    ndarray of np.longdouble, shape (count + 1, n, n)
-        The powers; each entry carries the long double rounding (truncation) of the
-        exact power, plus at most 2^-160 of the largest entry times the cancellation.
+    ndarray of np.longdouble, shape (n, n)
+        The power, truncated to long double; besides that truncation, at most 2^-160 of
+        the largest entry per product times the cancellation of the products.
     """
-    n = a.shape[0]
-    m, s_a = _to_fixed(a)
-    p = np.empty((n, n), dtype=object)
-    p[...] = 0
-    for i in range(n):
-        p[i, i] = 1 << _BITS
-    s_p = _BITS
-    powers = np.empty((count + 1, n, n), dtype=np.longdouble)
-    powers[0] = np.eye(n)
+    base = _to_fixed(a)
+    result = None
+    while True:
+        if k & 1:
+            result = base if result is None else _product(result, base)
+        k >>= 1
+        if not k:
+            return _to_longdouble(*result)
+        base = _product(base, base)
+
+
+def exact_krylov(a: np.ndarray, b: np.ndarray, count: int) -> np.ndarray:
+    """``b, a b, .., a^count b`` exact, each rounded once to ``np.longdouble``.
+
+    Parameters
+    ----------
+    a : ndarray, shape (n, n)
+        Square matrix (float64 or longdouble; its value is taken exactly).
+    b : ndarray, shape (n, m)
+        Matrix the powers multiply.
+    count : int
+        Highest power, >= 0.
+
+    Returns
+    -------
+    ndarray of np.longdouble, shape (count + 1, n, m)
+        The products (n^2 m integer operations each, not the n^3 of a power).
+    """
+    a_fixed, term = _to_fixed(a), _to_fixed(b)
+    out = np.empty((count + 1, *b.shape), dtype=np.longdouble)
+    out[0] = np.asarray(b, dtype=np.longdouble)
     for k in range(1, count + 1):
-        p = m @ p  # exact: Python ints
-        s_p += s_a
-        size = max(abs(int(v)).bit_length() for v in p.flat)
-        drop = max(size - _BITS, 0)
-        if drop:  # floor of p 2^-drop: an error below one unit of 2^-_BITS
-            p = p >> drop
-            s_p -= drop
-        powers[k] = _to_longdouble(p, s_p)
-    return powers
+        term = _product(a_fixed, term)
+        out[k] = _to_longdouble(*term)
+    return out

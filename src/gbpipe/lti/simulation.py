@@ -27,10 +27,10 @@ Strongly non-normal ``Ad`` (transient growth: ``||Ad^j||`` far above ``||Ad||``)
 both premises: the extended-precision chain ``Ad^(j+1) = Ad Ad^j`` cancels (its entries
 are far smaller than those of ``|Ad| |Ad^j|``), and the float64 products by the block
 powers amplify their rounding. Such systems (cancellation factor above that of a normal
-matrix, see :func:`_cancels`) take the precise path: powers exact to the last bit of
-``np.longdouble`` (:mod:`gbpipe.lti.exact_powers`) and the whole block-start hierarchy in
-extended precision; 1000 times below the float64 recursion's error on eigenvector
-condition 1e6, at a few times the cost.
+matrix, see :func:`_cancels`) take the precise path: ``Ad^L`` exact to the last bit of
+``np.longdouble`` (:mod:`gbpipe.lti.exact_powers`) and one extended-precision loop over
+all block starts, without the segments; far below the float64 recursion's error on
+eigenvector condition 1e6 (benchmarks/simulate.py), at a few times the cost.
 See docs/architecture.md, "Physics".
 """
 
@@ -41,7 +41,7 @@ from typing import Any
 import numpy as np
 from scipy.signal import cont2discrete
 
-from gbpipe.lti.exact_powers import exact_powers
+from gbpipe.lti.exact_powers import exact_krylov, exact_power
 from gbpipe.memo import ArrayMemo, array_key
 
 __all__ = ["dlsim", "lsim"]
@@ -91,19 +91,23 @@ def _lifted(a: np.ndarray, b: np.ndarray, c: np.ndarray, d: np.ndarray, L: int
     p = c.shape[0]
     powers = _powers(a, L)
     precise = _cancels(a, powers)
-    if precise:
-        powers = _powers(a, L, exact=True)
     # C = I (a simulation of the states) multiplies nothing: skip its L products
     identity = p == n and np.array_equal(c, np.eye(n))
-    obs = (powers[:L] if identity else c @ powers[:L]).reshape(L * p, n).astype(float)
-    apb = powers[:L] @ b                                          # Ad^k Bd, k < L
+    if precise:  # C Ad^k and Ad^k Bd (k < L) exact: the chain's would carry its loss
+        cpa = exact_krylov(a.T, c.T, L - 1).transpose(0, 2, 1)
+        apb = exact_krylov(a, b, L - 1)
+    else:
+        cpa = powers[:L] if identity else c @ powers[:L]
+        apb = powers[:L] @ b
+    obs = cpa.reshape(L * p, n).astype(float)
     markov = np.concatenate([d[None], apb[:L - 1] if identity else c @ apb[:L - 1]]
                             ).astype(float)                       # D, C Bd, ...
     lag = np.subtract.outer(np.arange(L), np.arange(L))
     blocks = markov[np.maximum(lag, 0)] * (lag >= 0)[:, :, None, None]  # (L, L, p, m)
     toep = blocks.transpose(0, 2, 1, 3).reshape(L * p, L * m)
     reach = apb[::-1].transpose(1, 0, 2).reshape(n, L * m).astype(float)  # [.., Ad Bd, Bd]
-    return obs, toep, reach, powers[L], precise
+    a_l = exact_power(a, L) if precise else powers[L]
+    return obs, toep, reach, a_l, precise
 
 
 def _cancels(a: np.ndarray, powers: np.ndarray) -> bool:
@@ -126,23 +130,19 @@ def _cancels(a: np.ndarray, powers: np.ndarray) -> bool:
     return False
 
 
-def _powers(a: np.ndarray, count: int, exact: bool = False) -> np.ndarray:
+def _powers(a: np.ndarray, count: int) -> np.ndarray:
     """``a^0 .. a^count`` in extended precision, shape (count + 1, n, n), read-only
-    (remembered for the last few matrices: see ``_POWERS``); `exact`: exact to the last
-    bit of ``np.longdouble`` (:func:`gbpipe.lti.exact_powers.exact_powers`), where the
-    chain cancels."""
+    (remembered for the last few matrices: see ``_POWERS``)."""
     a = np.asarray(a, dtype=np.longdouble)
 
     def compute() -> np.ndarray:
-        if exact:
-            return exact_powers(a, count)
         powers = np.empty((count + 1, *a.shape), dtype=np.longdouble)
         powers[0] = np.eye(a.shape[0])
         for k in range(1, count + 1):
             powers[k] = a @ powers[k - 1]
         return powers
 
-    return _POWERS((count, exact, array_key(a)), compute)
+    return _POWERS((count, array_key(a)), compute)
 
 
 def _lifted_cached(a: np.ndarray, b: np.ndarray, c: np.ndarray, d: np.ndarray, L: int
@@ -194,7 +194,6 @@ def dlsim(a: np.ndarray, b: np.ndarray, c: np.ndarray, d: np.ndarray, u: np.ndar
         obs, toep, reach, a_l, precise = _lifted_cached(a, b, c, d, L)
         ub = u[:nfull * L].reshape(nfull, L * m)
         xs, x = _block_starts(a_l, ub @ reach.T, x, precise)
-        xs, x = np.asarray(xs, dtype=float), np.asarray(x, dtype=float)
         # One product gives a block's outputs from [x_b, U_b]: Y_b = [O T] [x_b; U_b].
         w = np.hstack([obs, toep]).T
         per_chunk = max(1, _CHUNK_SAMPLES // L)
@@ -219,35 +218,37 @@ def _block_starts(a_l: np.ndarray, f: np.ndarray, x: np.ndarray, precise: bool
     for all segments, where a loop over blocks would pay the Python call overhead per
     block); the true segment-start states follow the same recursion one level up, and
     each segment adds ``a_l^j`` times its start state. `precise` (powers that cancel,
-    see :func:`_cancels`): exact powers and every level in extended precision; the
-    states are then returned in extended precision.
+    see :func:`_cancels`): no segments, whose float64 products by ``a_l^j`` amplify
+    their rounding; one extended-precision loop over all blocks (about 3 µs + n² long
+    double operations per block, where the segments' exact powers of ``a_l`` would cost
+    16 n³ integer operations per level).
     """
     nb, n = f.shape
-    work = np.longdouble if precise else float
-    if nb <= max(_MIN_LIFTED, 2 * _SEGMENT):
+    if precise or nb <= max(_MIN_LIFTED, 2 * _SEGMENT):
         # The top of the hierarchy is the only recursion that carries rounding from block
-        # to block: run it in extended precision (a few dozen steps).
-        xs = np.empty((nb, n), dtype=work)
+        # to block: run it in extended precision (a few dozen steps; all blocks on the
+        # precise path).
+        xs = np.empty_like(f)
         xl = np.asarray(x, dtype=np.longdouble)
         for k in range(nb):
             xs[k] = xl
             xl = a_l @ xl + f[k]
-        return xs, xl
+        return xs, xl.astype(float)
     K = _SEGMENT
     n_seg = nb // K
-    powers = _powers(a_l, K, exact=precise)
-    a_t = np.ascontiguousarray(a_l.astype(work).T)
+    powers = _powers(a_l, K)
+    a_t = np.ascontiguousarray(a_l.astype(float).T)
     fs = f[:n_seg * K].reshape(n_seg, K, n)
-    xs = np.empty((nb, n), dtype=work)
+    xs = np.empty((nb, n))
     seg = xs[:n_seg * K].reshape(n_seg, K, n)
-    z = np.zeros((n_seg, n), dtype=work)
+    z = np.zeros((n_seg, n))
     for j in range(K):  # all segments at once, from zero
         seg[:, j] = z
         z = z @ a_t + fs[:, j]
     starts, x_end = _block_starts(powers[K], z, x, precise)
     # segment s, step j: + a_l^j starts[s]; as one product with [a_l^0 ... a_l^(K-1)]^T
-    seg += (starts.astype(work) @ powers[:K].astype(work).transpose(2, 0, 1).reshape(
-        n, K * n)).reshape(n_seg, K, n)
+    seg += (starts @ powers[:K].astype(float).transpose(2, 0, 1).reshape(n, K * n)
+            ).reshape(n_seg, K, n)
     tail, x_end = _block_starts(a_l, f[n_seg * K:], x_end, precise)
     xs[n_seg * K:] = tail
     return xs, x_end
