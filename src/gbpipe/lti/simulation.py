@@ -19,18 +19,19 @@ Accuracy: no eigen-decomposition, so neither defective nor ill-conditioned eigen
 enter. The powers are formed in extended precision and rounded once, and the top-level
 loop runs in extended precision, so no power of ``Ad`` accumulates rounding; what is left
 is the rounding of the matrix products, of the size of the float64 sample-by-sample
-recursion's own (benchmarks/simulate.py: about 3e-11 relative at eigenvector condition up
-to 1e9; on the bench, whose torques are differences of absolute angles, 4e-10 against the
-float64 recursion's 3e-9).
+recursion's own or below (benchmarks/simulate.py: Jordan blocks and integrators 0.3-1
+times it; on the bench, whose torques are differences of absolute angles, 4e-10 against
+the float64 recursion's 3e-9).
 
 Strongly non-normal ``Ad`` (transient growth: ``||Ad^j||`` far above ``||Ad||``) breaks
 both premises: the extended-precision chain ``Ad^(j+1) = Ad Ad^j`` cancels (its entries
 are far smaller than those of ``|Ad| |Ad^j|``), and the float64 products by the block
 powers amplify their rounding. Such systems (cancellation factor above that of a normal
-matrix, see :func:`_cancels`) take the precise path: ``Ad^L`` exact to the last bit of
-``np.longdouble`` (:mod:`gbpipe.lti.exact_powers`) and one extended-precision loop over
-all block starts, without the segments; far below the float64 recursion's error on
-eigenvector condition 1e6 (benchmarks/simulate.py), at a few times the cost.
+matrix, see :func:`_cancels`) take the precise path: ``Ad^L``, ``C Ad^j`` and
+``Ad^j Bd`` exact to the last bit of ``np.longdouble`` (:mod:`gbpipe.lti.exact_powers`)
+and one extended-precision loop over all block starts, without the segments: below 0.01
+times the float64 recursion's error on eigenvector condition 1e5-1e6 and on near-repeated
+modes (benchmarks/simulate.py), at a few times the fast path's cost.
 See docs/architecture.md, "Physics".
 """
 
