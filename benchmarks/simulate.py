@@ -21,7 +21,8 @@ eigenvector condition 1e5 to 1e6 and slowest pole |lambda| = 0.9995, near-repeat
 defective and near-defective ``A``, integrators; several seeds each), the error of `lsim`
 divided by the error of the float64 recursion on the same ZOH matrices, both against the
 extended-precision reference (issue 35: <= 3 on every case); transient growth at
-condition 1e2 and 2e2 straddles the switch between the fast and the precise path. The
+condition 1e2 and 2e2 (12 states), 3e2 and 1e3 (50 states) straddles the switch between
+the fast and the precise path. The
 speed table adds one such system (the precise path, exact powers) beside the bench.
 
 Usage: ``OMP_NUM_THREADS=1 python benchmarks/simulate.py [n_samples]``
@@ -212,6 +213,9 @@ def floor_table(n_samples: int = 20_000) -> float:
     # cond 1e2 and 2e2: around the switch to the precise path (simulation._cancels)
     cases = [(f"transient growth, cond {c:.0e}, seed {s}", transient_growth(c, seed=s))
              for c in (1e2, 2e2, 1e5, 5e5, 1e6) for s in range(4)]
+    # 50 states: the switch (cancellation factor sqrt(n)) at a larger size
+    cases += [(f"transient growth, 50 states, cond {c:.0e}, seed {s}",
+               transient_growth(c, n_pairs=25, seed=s)) for c in (3e2, 1e3) for s in (0, 1)]
     cases += [(f"near-repeated modes, cond target {c:.0e}, seed {s}", ill_conditioned(c, seed=s))
               for c in (1e5, 1e8) for s in (1, 2)]
     cases += [("Jordan block (defective), size 6", jordan()),
