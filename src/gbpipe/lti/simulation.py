@@ -19,9 +19,19 @@ Accuracy: no eigen-decomposition, so neither defective nor ill-conditioned eigen
 enter. The powers are formed in extended precision and rounded once, and the top-level
 loop runs in extended precision, so no power of ``Ad`` accumulates rounding; what is left
 is the rounding of the matrix products, of the size of the float64 sample-by-sample
-recursion's own (benchmarks/simulate.py: about 3e-11 relative at eigenvector condition up
-to 1e9; on the bench, whose torques are differences of absolute angles, 4e-10 against the
-float64 recursion's 3e-9).
+recursion's own or below (benchmarks/simulate.py: Jordan blocks and integrators 0.3-1
+times it; on the bench, whose torques are differences of absolute angles, 4e-10 against
+the float64 recursion's 3e-9).
+
+Strongly non-normal ``Ad`` (transient growth: ``||Ad^j||`` far above ``||Ad||``) breaks
+both premises: the extended-precision chain ``Ad^(j+1) = Ad Ad^j`` cancels (its entries
+are far smaller than those of ``|Ad| |Ad^j|``), and the float64 products by the block
+powers amplify their rounding. Such systems (cancellation factor above that of a normal
+matrix, see :func:`_cancels`) take the precise path: ``Ad^L``, ``C Ad^j`` and
+``Ad^j Bd`` exact to the last bit of ``np.longdouble`` (:mod:`gbpipe.lti.exact_powers`)
+and one extended-precision loop over all block starts, without the segments: below 0.01
+times the float64 recursion's error on eigenvector condition 1e5-1e6 and on near-repeated
+modes (benchmarks/simulate.py), at a few times the fast path's cost.
 See docs/architecture.md, "Physics".
 """
 
@@ -32,6 +42,7 @@ from typing import Any
 import numpy as np
 from scipy.signal import cont2discrete
 
+from gbpipe.lti.exact_powers import exact_krylov, exact_power
 from gbpipe.memo import ArrayMemo, array_key
 
 __all__ = ["dlsim", "lsim"]
@@ -65,8 +76,9 @@ def block_length(n: int, m: int, p: int) -> int:
 
 
 def _lifted(a: np.ndarray, b: np.ndarray, c: np.ndarray, d: np.ndarray, L: int
-            ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Observability O (L p, n), Toeplitz T (L p, L m), reachability R (n, L m), Ad^L.
+            ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, bool]:
+    """Observability O (L p, n), Toeplitz T (L p, L m), reachability R (n, L m), Ad^L,
+    and whether the powers cancel (then exact: the precise path, see :func:`_cancels`).
 
     Computed in extended precision (``np.longdouble``, cheap: L n³ flops once) and
     rounded once: a power ``Ad^L`` accumulated in float64 carries a systematic error that
@@ -79,17 +91,45 @@ def _lifted(a: np.ndarray, b: np.ndarray, c: np.ndarray, d: np.ndarray, L: int
     n, m = b.shape
     p = c.shape[0]
     powers = _powers(a, L)
+    precise = _cancels(a, powers)
     # C = I (a simulation of the states) multiplies nothing: skip its L products
     identity = p == n and np.array_equal(c, np.eye(n))
-    obs = (powers[:L] if identity else c @ powers[:L]).reshape(L * p, n).astype(float)
-    apb = powers[:L] @ b                                          # Ad^k Bd, k < L
+    if precise:  # C Ad^k and Ad^k Bd (k < L) exact: the chain's would carry its loss
+        cpa = exact_krylov(a.T, c.T, L - 1).transpose(0, 2, 1)
+        apb = exact_krylov(a, b, L - 1)
+    else:
+        cpa = powers[:L] if identity else c @ powers[:L]
+        apb = powers[:L] @ b
+    obs = cpa.reshape(L * p, n).astype(float)
     markov = np.concatenate([d[None], apb[:L - 1] if identity else c @ apb[:L - 1]]
                             ).astype(float)                       # D, C Bd, ...
     lag = np.subtract.outer(np.arange(L), np.arange(L))
     blocks = markov[np.maximum(lag, 0)] * (lag >= 0)[:, :, None, None]  # (L, L, p, m)
     toep = blocks.transpose(0, 2, 1, 3).reshape(L * p, L * m)
     reach = apb[::-1].transpose(1, 0, 2).reshape(n, L * m).astype(float)  # [.., Ad Bd, Bd]
-    return obs, toep, reach, powers[L]
+    a_l = exact_power(a, L) if precise else powers[L]
+    return obs, toep, reach, a_l, precise
+
+
+def _cancels(a: np.ndarray, powers: np.ndarray) -> bool:
+    """Whether the products ``a a^j`` of the power chain cancel more than a normal matrix's.
+
+    The cancellation factor of one product is ``max |a| |a^j| / max |a^(j+1)|`` (1 for a
+    nonnegative matrix, a diagonal, a Jordan block; at most about sqrt(n) for a normal
+    matrix in any orthonormal basis, whose n terms of a sum add with random signs; about
+    ``||a||`` for transient growth: 6e2 and 5e3 at eigenvector condition 1e5 and 1e6 in
+    benchmarks/simulate.py). Above sqrt(n) the
+    extended-precision chain and the float64 block products lose digits that the
+    sample-by-sample recursion keeps.
+    """
+    a_abs = np.abs(a.astype(float))
+    n = a.shape[0]
+    for j in range(len(powers) - 1):
+        bound = np.max(a_abs @ np.abs(powers[j].astype(float)))
+        size = np.max(np.abs(powers[j + 1].astype(float)))
+        if bound > np.sqrt(n) * size:
+            return True
+    return False
 
 
 def _powers(a: np.ndarray, count: int) -> np.ndarray:
@@ -108,7 +148,7 @@ def _powers(a: np.ndarray, count: int) -> np.ndarray:
 
 
 def _lifted_cached(a: np.ndarray, b: np.ndarray, c: np.ndarray, d: np.ndarray, L: int
-                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, bool]:
     """:func:`_lifted`, remembered for the last few systems (see ``_LIFTED``)."""
     return _LIFTED((L, array_key(a, b, c, d)), lambda: _lifted(a, b, c, d, L))
 
@@ -153,9 +193,9 @@ def dlsim(a: np.ndarray, b: np.ndarray, c: np.ndarray, d: np.ndarray, u: np.ndar
     L = block_length(n, m, p)
     nfull = n_samp // L
     if nfull:
-        obs, toep, reach, a_l = _lifted_cached(a, b, c, d, L)
+        obs, toep, reach, a_l, precise = _lifted_cached(a, b, c, d, L)
         ub = u[:nfull * L].reshape(nfull, L * m)
-        xs, x = _block_starts(a_l, ub @ reach.T, x)
+        xs, x = _block_starts(a_l, ub @ reach.T, x, precise)
         # One product gives a block's outputs from [x_b, U_b]: Y_b = [O T] [x_b; U_b].
         w = np.hstack([obs, toep]).T
         per_chunk = max(1, _CHUNK_SAMPLES // L)
@@ -171,7 +211,7 @@ def dlsim(a: np.ndarray, b: np.ndarray, c: np.ndarray, d: np.ndarray, u: np.ndar
     return (y, x) if return_state else y
 
 
-def _block_starts(a_l: np.ndarray, f: np.ndarray, x: np.ndarray
+def _block_starts(a_l: np.ndarray, f: np.ndarray, x: np.ndarray, precise: bool
                   ) -> tuple[np.ndarray, np.ndarray]:
     """States ``x_b`` of ``x_{b+1} = a_l x_b + f_b`` from ``x_0 = x``, and the next one.
 
@@ -179,12 +219,17 @@ def _block_starts(a_l: np.ndarray, f: np.ndarray, x: np.ndarray
     that all start from zero and advance together (one small matrix product per step
     for all segments, where a loop over blocks would pay the Python call overhead per
     block); the true segment-start states follow the same recursion one level up, and
-    each segment adds ``a_l^j`` times its start state.
+    each segment adds ``a_l^j`` times its start state. `precise` (powers that cancel,
+    see :func:`_cancels`): no segments, whose float64 products by ``a_l^j`` amplify
+    their rounding; one extended-precision loop over all blocks (about 3 µs + n² long
+    double operations per block, where the segments' exact powers of ``a_l`` would cost
+    16 n³ integer operations per level).
     """
     nb, n = f.shape
-    if nb <= max(_MIN_LIFTED, 2 * _SEGMENT):
+    if precise or nb <= max(_MIN_LIFTED, 2 * _SEGMENT):
         # The top of the hierarchy is the only recursion that carries rounding from block
-        # to block: run it in extended precision (a few dozen steps).
+        # to block: run it in extended precision (a few dozen steps; all blocks on the
+        # precise path).
         xs = np.empty_like(f)
         xl = np.asarray(x, dtype=np.longdouble)
         for k in range(nb):
@@ -202,11 +247,11 @@ def _block_starts(a_l: np.ndarray, f: np.ndarray, x: np.ndarray
     for j in range(K):  # all segments at once, from zero
         seg[:, j] = z
         z = z @ a_t + fs[:, j]
-    starts, x_end = _block_starts(powers[K], z, x)
+    starts, x_end = _block_starts(powers[K], z, x, precise)
     # segment s, step j: + a_l^j starts[s]; as one product with [a_l^0 ... a_l^(K-1)]^T
     seg += (starts @ powers[:K].astype(float).transpose(2, 0, 1).reshape(n, K * n)
             ).reshape(n_seg, K, n)
-    tail, x_end = _block_starts(a_l, f[n_seg * K:], x_end)
+    tail, x_end = _block_starts(a_l, f[n_seg * K:], x_end, precise)
     xs[n_seg * K:] = tail
     return xs, x_end
 
