@@ -20,7 +20,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from gbpipe.model.frf_data import FrfData
+from gbpipe.model.frf_data import FrfData, welch_kernel
 from gbpipe.model.identifiability import log_jacobian
 from gbpipe.model.parameters import FreeParameters
 
@@ -46,7 +46,15 @@ class FrfResiduals:
     def __init__(self, free: FreeParameters, data: Sequence[FrfData], delay: bool) -> None:
         self.free = free
         self.n = len(free.paths)
-        self.response = free.response([d.pairing for d in data], [d.f_hz for d in data])
+        # a Welch estimate is compared with the model's expected estimate: the model on the
+        # window kernel's nodes around each frequency, weighted (FrfData.segment)
+        kernels = [welch_kernel(d.segment) if d.segment is not None
+                   else (np.zeros(1), np.ones(1)) for d in data]
+        self.response = free.response([d.pairing for d in data],
+                                      [(d.f_hz[None, :] + nodes[:, None]).ravel()
+                                       for d, (nodes, _) in zip(data, kernels, strict=True)])
+        self.kernel_weights = [w for _, w in kernels]
+        self.shapes = [d.frf.shape for d in data]
         self.mask = np.concatenate([d.mask.ravel() for d in data])
         f_all = np.concatenate([np.broadcast_to(d.f_hz[:, None, None], d.frf.shape).ravel()
                                 for d in data])[self.mask]
@@ -79,7 +87,13 @@ class FrfResiduals:
     def values(self, theta: np.ndarray) -> np.ndarray:
         """Model FRF values (complex, the fitted ones, flat) at ``θ``."""
         self.n_evaluations += 1
-        g = self.response(theta[:self.n])[self.mask]
+        flat, out, first = self.response(theta[:self.n]), [], 0
+        for w, shape in zip(self.kernel_weights, self.shapes, strict=True):
+            size = w.size * int(np.prod(shape))
+            out.append(np.tensordot(w, flat[first:first + size].reshape(w.size, *shape),
+                                    axes=1).ravel())
+            first += size
+        g = np.concatenate(out)[self.mask]
         if self.delay_phase is None:
             return g
         return g * np.exp(-1j * self.delay_phase * theta[self.n])
