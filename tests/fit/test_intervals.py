@@ -6,11 +6,13 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
+import pytest
 from scipy.optimize import least_squares
 from scipy.signal import get_window
 from scipy.stats import chi2
 
 from gbpipe.config import load
+from gbpipe.errors import DataError
 from gbpipe.model.fit import fit_parameters
 from gbpipe.model.fit_residuals import FrfResiduals, correlation_factor
 from gbpipe.model.frf import Pairing, pairing_frf
@@ -129,3 +131,16 @@ def test_intervals_cover_at_their_level_and_equal_the_profile_likelihoods(cfg):
     lo, hi = chi2.ppf([0.0005, 0.9995], z.size) / z.size
     assert lo < np.mean(z ** 2) < hi
     assert np.sum(np.abs(z) > 1.96) <= 15        # binomial(120, 0.05): 99.9 % quantile
+
+
+def test_a_welch_segment_is_checked_against_its_grid(cfg):
+    """A segment that is not a positive length, or a fitted frequency within one
+    resolution of 0 Hz (the kernel's lower node would reach DC), is refused by name."""
+    pairing = Pairing.from_config(cfg["identify"]["pairings"][0])
+    f = np.array([0.5, 2.0, 5.0])
+    g = pairing_frf(cfg, [pairing], f)[0]
+    for segment, words in ((-1.0, "positive length"), (1.0, "0.5 Hz is within one")):
+        with pytest.raises(DataError, match=words):
+            FrfData(pairing, f, g, 0.02, segment)
+    g[0] = np.nan       # left out: accepted
+    assert FrfData(pairing, f, g, 0.02, 1.0).segment == 1.0

@@ -2,7 +2,9 @@
 
 For every FRF value the residual is ``ln(G_model / G_data)``: its real part the
 log-magnitude error [Np], its imaginary part the wrapped phase error [rad], each divided
-by the value's standard deviation (:class:`gbpipe.model.frf_data.FrfData`). The unknowns
+by the value's standard deviation (:class:`gbpipe.model.frf_data.FrfData`). For a Welch
+estimate (``FrfData.segment`` given) the model is its expected estimate, the model on the
+window kernel's nodes weighted (:func:`gbpipe.model.frf_data.welch_kernel`). The unknowns
 are ``θ = ln(p / p_prior)`` (:class:`gbpipe.model.parameters.FreeParameters`), plus an
 optional input-to-output delay in ms.
 
