@@ -55,9 +55,18 @@ class FrfResiduals:
         self.response = free.response([d.pairing for d in data],
                                       [(d.f_hz[None, :] + nodes[:, None]).ravel()
                                        for d, (nodes, _) in zip(data, kernels, strict=True)])
-        self.kernel_weights = [w for _, w in kernels]
-        self.shapes = [d.frf.shape for d in data]
         self.mask = np.concatenate([d.mask.ravel() for d in data])
+        # each fitted value as a weighted sum over the flat response: its position per
+        # kernel node (the response of a pairing is node-major), weight 0 pads a node
+        width = max(w.size for _, w in kernels)
+        where, weights, first = [], [], 0
+        for d, (_, w) in zip(data, kernels, strict=True):
+            pos = first + np.arange(d.frf.size)[:, None] + d.frf.size * np.arange(width)
+            where.append(np.where(np.arange(width) < w.size, pos, 0))
+            weights.append(np.broadcast_to(np.pad(w, (0, width - w.size)), pos.shape))
+            first += d.frf.size * w.size
+        self.where = np.concatenate(where)[self.mask]
+        self.node_weights = np.concatenate(weights)[self.mask]
         f_all = np.concatenate([np.broadcast_to(d.f_hz[:, None, None], d.frf.shape).ravel()
                                 for d in data])[self.mask]
         # angular frequency of every fitted value, in rad per ms (θ's delay unit)
@@ -89,13 +98,11 @@ class FrfResiduals:
     def values(self, theta: np.ndarray) -> np.ndarray:
         """Model FRF values (complex, the fitted ones, flat) at ``θ``."""
         self.n_evaluations += 1
-        flat, out, first = self.response(theta[:self.n]), [], 0
-        for w, shape in zip(self.kernel_weights, self.shapes, strict=True):
-            size = w.size * int(np.prod(shape))
-            out.append(np.tensordot(w, flat[first:first + size].reshape(w.size, *shape),
-                                    axes=1).ravel())
-            first += size
-        g = np.concatenate(out)[self.mask]
+        flat = self.response(theta[:self.n])
+        if self.where.shape[1] == 1:        # no Welch kernel: the values themselves
+            g = flat[self.where[:, 0]]
+        else:
+            g = np.einsum("ij,ij->i", flat[self.where], self.node_weights)
         if self.delay_phase is None:
             return g
         return g * np.exp(-1j * self.delay_phase * theta[self.n])
