@@ -105,6 +105,8 @@ class FrfResiduals:
             g = np.einsum("ij,ij->i", flat[self.where], self.node_weights)
         if self.delay_phase is None:
             return g
+        # the delay at the value's own frequency, not per kernel node: over ±1/T its
+        # phase changes by 2π·τ/T (6e-4 rad for 0.1 ms and 1 s segments)
         return g * np.exp(-1j * self.delay_phase * theta[self.n])
 
     def residual(self, theta: np.ndarray) -> np.ndarray:

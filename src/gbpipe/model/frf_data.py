@@ -10,10 +10,11 @@ A Welch estimate is not the FRF at its bin but the FRF seen through the window's
 kernel: with an excitation whose spectrum is flat over the kernel, ``E[Ĝ](f) = ∫ K(ν)
 G(f − ν) dν`` with ``K = |W|²`` normalised. Near a lightly damped mode that is a bias
 (resolution bias, Bendat & Piersol §9.1) far beyond the estimate's scatter: on the shaft
-line of benchmarks/fit_chain.py (1 s Hann segments, modes of 0.6–1 Hz half-power
-bandwidth) 3–7 standard deviations at 29–41 Hz. ``FrfData.segment`` names the estimate's
-Hann segment length, and the fit then compares the data with the model's expected
-estimate (:func:`welch_kernel`) instead of the model itself. See docs/fit.md.
+line of benchmarks/fit_chain.py (1 s Hann segments, modes of about 1 Hz half-power
+bandwidth) 0.04–0.3 Np at 29–35 Hz against a scatter of 0.01–0.09 Np.
+``FrfData.segment`` names the estimate's Hann segment length, and the fit then compares
+the data with the model's expected estimate (:func:`welch_kernel`) instead of the model
+itself. See docs/fit.md.
 """
 
 from __future__ import annotations
