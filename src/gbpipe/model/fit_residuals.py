@@ -2,7 +2,9 @@
 
 For every FRF value the residual is ``ln(G_model / G_data)``: its real part the
 log-magnitude error [Np], its imaginary part the wrapped phase error [rad], each divided
-by the value's standard deviation (:class:`gbpipe.model.frf_data.FrfData`). The unknowns
+by the value's standard deviation (:class:`gbpipe.model.frf_data.FrfData`). For a Welch
+estimate (``FrfData.segment`` given) the model is its expected estimate, the model on the
+window kernel's nodes weighted (:func:`gbpipe.model.frf_data.welch_kernel`). The unknowns
 are ``θ = ln(p / p_prior)`` (:class:`gbpipe.model.parameters.FreeParameters`), plus an
 optional input-to-output delay in ms.
 
@@ -20,7 +22,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from gbpipe.model.frf_data import FrfData
+from gbpipe.model.frf_data import FrfData, welch_kernel
 from gbpipe.model.identifiability import log_jacobian
 from gbpipe.model.parameters import FreeParameters
 
@@ -46,8 +48,25 @@ class FrfResiduals:
     def __init__(self, free: FreeParameters, data: Sequence[FrfData], delay: bool) -> None:
         self.free = free
         self.n = len(free.paths)
-        self.response = free.response([d.pairing for d in data], [d.f_hz for d in data])
+        # a Welch estimate is compared with the model's expected estimate: the model on the
+        # window kernel's nodes around each frequency, weighted (FrfData.segment)
+        kernels = [welch_kernel(d.segment) if d.segment is not None
+                   else (np.zeros(1), np.ones(1)) for d in data]
+        self.response = free.response([d.pairing for d in data],
+                                      [(d.f_hz[None, :] + nodes[:, None]).ravel()
+                                       for d, (nodes, _) in zip(data, kernels, strict=True)])
         self.mask = np.concatenate([d.mask.ravel() for d in data])
+        # each fitted value as a weighted sum over the flat response: its position per
+        # kernel node (the response of a pairing is node-major), weight 0 pads a node
+        width = max(w.size for _, w in kernels)
+        where, weights, first = [], [], 0
+        for d, (_, w) in zip(data, kernels, strict=True):
+            pos = first + np.arange(d.frf.size)[:, None] + d.frf.size * np.arange(width)
+            where.append(np.where(np.arange(width) < w.size, pos, 0))
+            weights.append(np.broadcast_to(np.pad(w, (0, width - w.size)), pos.shape))
+            first += d.frf.size * w.size
+        self.where = np.concatenate(where)[self.mask]
+        self.node_weights = np.concatenate(weights)[self.mask]
         f_all = np.concatenate([np.broadcast_to(d.f_hz[:, None, None], d.frf.shape).ravel()
                                 for d in data])[self.mask]
         # angular frequency of every fitted value, in rad per ms (θ's delay unit)
@@ -79,9 +98,15 @@ class FrfResiduals:
     def values(self, theta: np.ndarray) -> np.ndarray:
         """Model FRF values (complex, the fitted ones, flat) at ``θ``."""
         self.n_evaluations += 1
-        g = self.response(theta[:self.n])[self.mask]
+        flat = self.response(theta[:self.n])
+        if self.where.shape[1] == 1:        # no Welch kernel: the values themselves
+            g = flat[self.where[:, 0]]
+        else:
+            g = np.einsum("ij,ij->i", flat[self.where], self.node_weights)
         if self.delay_phase is None:
             return g
+        # the delay at the value's own frequency, not per kernel node: over ±1/T its
+        # phase changes by 2π·τ/T (6e-4 rad for 0.1 ms and 1 s segments)
         return g * np.exp(-1j * self.delay_phase * theta[self.n])
 
     def residual(self, theta: np.ndarray) -> np.ndarray:
