@@ -75,4 +75,6 @@ def test_agreeing_starts_in_a_wrong_basin_do_not_end_the_search():
         assert res.search == "starts + evolution"
         assert res.cost <= 0.5 * float(r @ r) * 1.01
         true = np.array([get_value(truth, p) for p in free])
+        # nothing identified only when the fit says poor
+        assert res.identified.any() or res.goodness.status == "poor"
         assert np.all(np.abs(res.value[res.identified] / true[res.identified] - 1) < 0.10)

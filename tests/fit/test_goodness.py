@@ -71,8 +71,6 @@ def test_a_wrong_stiffness_makes_the_fit_poor_and_names_the_misfit(cfg):
     assert not wrong.identified.any() and set(wrong.status) <= {"poor", "conditional",
                                                                  "unidentifiable"}
     assert "Tdrn_to_wdrn" in wrong.goodness.reason and "Hz" in wrong.goodness.reason
-    assert wrong.goodness.band_share.sum() == np.float64(1.0) or \
-        abs(wrong.goodness.band_share.sum() - 1) < 1e-12
     # passed: no parameter is poor (one known worse than fit.accuracy is held instead)
     assert right.goodness.status == "passed" and "poor" not in right.status
     assert right.identified.any()

@@ -5,6 +5,9 @@ from __future__ import annotations
 
 import copy
 
+import pint
+import pytest
+
 from gbpipe.model.fit_report import parameter_unit
 from gbpipe.model.keypath import get_value, overlay, with_values
 
@@ -22,3 +25,41 @@ def test_named_and_indexed_entries_are_read_written_and_overlaid():
                                                   "shafts": [{"stiffness": 1e6},
                                                              {"stiffness": 3e6}]}}
     assert [parameter_unit(p) for p in paths] == ["kg m2", "N m rad-1"]
+
+
+def test_every_parameter_unit_makes_its_torque_term_a_torque():
+    """Each free parameter's unit times the quantity it multiplies in the equations of
+    motion (docs/drivetrain.md) is a torque [N·m], checked with pint; a drivetrain
+    controller gain takes its controller's type."""
+    ureg = pint.UnitRegistry()
+
+    def q(udunits: str):
+        if udunits == "1":
+            return ureg.Quantity(1.0)
+        factors = []
+        for part in udunits.split():
+            name = part.rstrip("-0123456789")
+            factors.append(f"{name}**({part[len(name):] or '1'})")
+        return ureg.Quantity(1.0, "*".join(factors))
+
+    motors = [{"controller": {"type": "torque"}}, {"controller": {"type": "speed"}}]
+    cfg = {"drivetrain": {"motors": motors}}
+    cases = {  # path -> what it multiplies
+        "drivetrain.disks.load.inertia": "rad s-2",
+        "drivetrain.shafts[2].stiffness": "rad",
+        "drivetrain.shafts[2].damping": "rad s-1",
+        "drivetrain.mounts[0].damping": "rad s-1",
+        "bench.speed_controller.kp": "rad s-1",
+        "bench.speed_controller.ki": "rad",             # integral of the speed error
+        "drivetrain.motors[1].controller.kp": "rad s-1",
+        "drivetrain.motors[1].controller.ki": "rad",
+        "bench.torque_controller.kp": "N m",
+        "drivetrain.motors[0].controller.kp": "N m",
+        "drivetrain.motors[0].controller.ki": "N m s",  # integral of the torque error
+    }
+    for path, times in cases.items():
+        torque = q(parameter_unit(path, cfg)) * q(times)
+        assert torque.to_base_units() == q("N m").to_base_units(), path
+    assert parameter_unit("drivetrain.shafts[2].damping_ratio") == "1"
+    with pytest.raises(ValueError, match="controller type"):
+        parameter_unit("drivetrain.motors[0].controller.kp")

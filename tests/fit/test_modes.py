@@ -3,6 +3,8 @@ bench: frequencies and damping ratios of a perturbed truth with their spreads.""
 
 from __future__ import annotations
 
+import itertools
+
 import numpy as np
 import pytest
 
@@ -28,7 +30,7 @@ def test_modes_of_a_perturbed_bench_give_back_what_they_determine(cfg, tmp_path)
     truth = with_values(cfg, {p: get_value(cfg, p) * k for p, k in zip(FREE, FACTORS,
                                                                         strict=True)})
     sim = modal_data_of(truth, None, 350.0, 0.005, 0.1, np.random.default_rng(0))
-    # the truth's modes, independently of the fit's code path (python-control-free lti)
+    # the table holds the truth's modes within the drawn spread (0.5 %; 3 % allowed)
     f_true, _ = true_modes(bench_ss(truth, closed=False).A, 350.0, 1.0)
     assert np.allclose(np.sort(sim.frequency_hz), np.sort(f_true), rtol=0.03)
     path = tmp_path / "modes.csv"
@@ -59,9 +61,14 @@ def test_matching_uses_each_model_mode_once_and_bad_tables_are_named(cfg, tmp_pa
     """Two data modes nearest the same model mode: the assignment gives them different
     ones (minimum total log distance). A table without a spread column, a zero spread or
     a delay asked of modes are refused with the fix."""
-    idx = match_modes(np.array([10.0, 20.0, 40.0]), np.array([19.0, 21.0]))
-    assert sorted(idx) == [1, 2] or sorted(idx) == [0, 1]
-    assert len(set(idx)) == 2 and idx[0] != idx[1]
+    model, data = np.array([10.0, 20.0, 40.0]), np.array([19.0, 21.0])
+    idx = match_modes(model, data)
+    # brute force over every one-to-one assignment: 19->10, 21->20 (0.691) beats
+    # 19->20, 21->40 (0.695)
+    best = min(itertools.permutations(range(3), 2),
+               key=lambda a: sum(abs(np.log(d / model[m])) for d, m in zip(data, a,
+                                                                             strict=True)))
+    assert list(idx) == list(best) == [0, 1]
     bad = tmp_path / "bad.csv"
     bad.write_text("frequency_hz,damping,frequency_spread_hz\n10,0.01,0.1\n")
     with pytest.raises(DataError, match="damping_spread"):

@@ -35,8 +35,6 @@ def _check_goodness(ds):
     pairing and the band of the misfit named, and then no parameter is identified."""
     poor = float(ds.chi2_p) < float(ds.attrs["chi2_alpha"])
     assert ds.attrs["fit_status"] == ("poor" if poor else "passed")
-    assert abs(float(ds.misfit_share.sum()) - 1) < 1e-9
-    assert abs(float(ds.band_misfit_share.sum()) - 1) < 1e-9
     if poor:
         assert "identified" not in set(ds.status.values)
         assert "misfit in" in ds.attrs["fit_reason"] and " Hz" in ds.attrs["fit_reason"]
@@ -117,6 +115,8 @@ def test_a_bench_record_is_fitted_where_its_data_are_coherent(measured_run):
     # search finds the biased data's minimum away from the bench: the fit must then say
     # poor (checked above), and no parameter may be called identified
     vouched = ds.status.values == "identified"
+    # nothing vouched for only when the fit says poor (with its reason, checked above)
+    assert vouched.any() or ds.attrs["fit_status"] == "poor"
     assert np.all(np.abs(ds.estimate.values[vouched] / true[vouched] - 1) < 0.10)
     assert np.all((lo[ident] < ds.estimate.values[ident]) & (ds.estimate.values[ident] < hi[ident]))
     assert np.all(np.isnan(lo[~ident]))

@@ -50,7 +50,7 @@ for k, share in enumerate(g.band_share):
     log.info("  %.4g-%.4g Hz: %.1f %% of chi2 (%.1f %% of the residuals)",
              g.band_edges[k], g.band_edges[k + 1], 100 * share, 100 * g.band_count_share[k])
 if fit["data"] == "modes":
-    ds = model.modal_fit_dataset(res, fit["modes"]["system"])
+    ds = model.modal_fit_dataset(res, fit["modes"]["system"], p.prior)
 else:
     ds = model.fit_dataset(res, data, p.prior, identified, fit["version"])
 io.write(ds, out.nc, sources=i, stage=snakemake.rule, config=dict(p),

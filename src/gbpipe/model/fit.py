@@ -42,7 +42,7 @@ from gbpipe.model.keypath import overlay
 from gbpipe.model.parameters import DEFAULT_FACTOR, FreeParameters
 
 __all__ = ["FitResult", "fit_parameters", "correlation_factor", "DELAY_NAME",
-           "PARAMETER_STATUSES", "DEFAULT_ACCURACY"]
+           "DEFAULT_ACCURACY"]
 
 #: Name of the delay unknown in the identifiability analysis; its unit in ``θ`` is 1 ms.
 DELAY_NAME = "delay"
@@ -56,7 +56,6 @@ DEFAULT_ACCURACY = 0.05
 #: Parameter statuses: determined and the fit passed its test (or had no sigma to test);
 #: determined but the fit is poor; fitted with an undetermined partner held, or known only
 #: to worse than ``accuracy``; held at prior.
-PARAMETER_STATUSES = (IDENTIFIED, POOR_FIT, CONDITIONAL, UNIDENTIFIABLE)
 
 
 @dataclass
@@ -71,7 +70,8 @@ class FitResult:
         Start and fitted values (units of each key). ``value`` equals ``prior`` for an
         ``unidentifiable`` parameter.
     interval : ndarray, shape (n, 2)
-        95 % interval of each ``identified`` parameter (NaN otherwise).
+        95 % interval of each determined parameter: ``identified``, or ``poor`` (then it
+        assumes a model the data reject); NaN otherwise.
     status : list of str
         ``identified`` (determined, and the fit passed its goodness test or had no sigma
         to test against); ``poor`` (determined, but the fit failed the test: its interval
@@ -305,8 +305,8 @@ def fit_parameters(cfg: Mapping[str, Any], data: Sequence[FrfData] | ModalData,
     everything = np.ones(nu, dtype=bool)
     theta0 = np.zeros(nu)
     cost_prior = 0.5 * float(np.sum(problem.residual(theta0) ** 2))
-    runs, _ = start_runs(problem, lo, hi, n_starts,
-                              8 * nu if n_global is None else n_global, seed)
+    runs = start_runs(problem, lo, hi, n_starts, 8 * nu if n_global is None else n_global,
+                      seed)
     theta, cost = min(runs, key=lambda r: r[1])
     how = "starts"
     if needs_evolution(search, cost, cost_prior):

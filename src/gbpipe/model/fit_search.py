@@ -19,7 +19,9 @@ global stages, over the box of the log-parameters ``θ = ln(p / p_prior)``:
 the evolution too unless the best start fits to round-off (exact data: nothing can beat
 a zero cost). Neither the agreement of starts nor a passed chi-square test tells a wrong
 basin from the right one (a wrong minimum a few chi-square spreads above the truth
-passes), so a result reported ``identified`` always had the box covered. See docs/fit.md.
+passes), so with the default search (``auto``) a result reported ``identified`` always had
+the box covered; ``search="starts"`` (``fit.search: starts``) skips the evolution and
+carries no such guarantee. See docs/fit.md.
 """
 
 from __future__ import annotations
@@ -30,17 +32,17 @@ import numpy as np
 from scipy.optimize import differential_evolution, least_squares
 from scipy.stats import qmc
 
-__all__ = ["local_run", "start_runs", "evolution_run", "needs_evolution", "SEARCHES",
-           "SAME_COST"]
+__all__ = ["local_run", "start_runs", "evolution_run", "needs_evolution", "SEARCHES"]
 
 #: Global stages: the starts alone, the starts and the evolution unless the best start fits
 #: to round-off, or both always.
 SEARCHES = ("starts", "auto", "evolution")
 #: Relative cost difference below which two local runs ended in the same minimum.
-SAME_COST = 1e-6
+_SAME_COST = 1e-6
 #: Population of the evolution per unknown, and its relative convergence tolerance.
-#: Measured on 12 random 6-parameter sets of the paper bench (benchmarks/fit_global.py):
-#: every set reached the cost at the truth within 0.3 %, ~1700 evaluations.
+#: Measured on the user's set and 30 random 6-parameter sets of the paper bench
+#: (``benchmarks/fit_global.py --sets 30``, docs/fit.md): every fit reached 0.9968-0.9997
+#: of the cost at the truth, ~1700 evaluations.
 _POPSIZE, _TOL, _MAXITER = 5, 0.01, 60
 #: Costs below this share of the prior's are round-off (a perfect fit of exact data).
 _ROUND_OFF = 1e-15
@@ -105,7 +107,7 @@ def _cost(problem: Any, theta: np.ndarray) -> float:
 
 
 def start_runs(problem: Any, lo: np.ndarray, hi: np.ndarray, n_starts: int, n_global: int,
-               seed: int) -> tuple[list[tuple[np.ndarray, float]], bool]:
+               seed: int) -> list[tuple[np.ndarray, float]]:
     """Local runs from the lowest-cost points among the prior and a Latin hypercube.
 
     Parameters
@@ -123,8 +125,7 @@ def start_runs(problem: Any, lo: np.ndarray, hi: np.ndarray, n_starts: int, n_gl
     Returns
     -------
     runs : list of (theta, cost)
-    agreed : bool
-        Two runs ended at the same lowest cost.
+        Fewer than ``n_starts`` when two runs ended at the same lowest cost.
     """
     pts = np.zeros((1, lo.size))
     if n_global > 0:
@@ -139,9 +140,9 @@ def start_runs(problem: Any, lo: np.ndarray, hi: np.ndarray, n_starts: int, n_gl
         # starts (ranked worse by the global stage) would only repeat it
         # (costs at round-off level, ~1e-21 of exact data, agree whatever their ratio)
         best = min(r[1] for r in runs)
-        if sum(r[1] <= best * (1 + SAME_COST) + _ROUND_OFF * cost[0] for r in runs) >= 2:
-            return runs, True
-    return runs, False
+        if sum(r[1] <= best * (1 + _SAME_COST) + _ROUND_OFF * cost[0] for r in runs) >= 2:
+            break
+    return runs
 
 
 def evolution_run(problem: Any, lo: np.ndarray, hi: np.ndarray,

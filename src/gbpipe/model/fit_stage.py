@@ -22,7 +22,7 @@ from gbpipe.errors import DataError
 from gbpipe.lti import pad
 from gbpipe.model.assembly import bench_ss
 from gbpipe.model.fit import FitResult
-from gbpipe.model.fit_report import result_variables
+from gbpipe.model.fit_report import cf_var, result_variables
 from gbpipe.model.frf import MOTOR_INPUTS, Pairing, pairing_frf
 from gbpipe.model.frf_data import FrfData, sigma_from_bounds
 from gbpipe.model.identifiability import design_outputs
@@ -201,50 +201,46 @@ def fit_dataset(result: FitResult, data: Sequence[FrfData], prior_cfg: Mapping[s
                                 [np.median(1 / d.weight) for d in data])), 1e-6),
                             base=(v * np.sqrt(np.clip(w, 0.0, None))).T)
     fdim = ("pairing", "frequency", "output", "input")
-    v, c, attrs = result_variables(result)
-
-    def var(dims: tuple[str, ...], values: Any, unit: str, name: str) -> tuple:
-        return dims, values, {"units": unit, "long_name": name}
-
+    v, c, attrs = result_variables(result, prior_cfg)
     v.update({
-        "delay": var((), result.delay, "s", "fitted input-to-output delay"),
-        "delay_lower": var((), result.delay_interval[0], "s",
+        "delay": cf_var((), result.delay, "s", "fitted input-to-output delay"),
+        "delay_lower": cf_var((), result.delay_interval[0], "s",
                            "lower end of the delay's 95 % interval"),
-        "delay_upper": var((), result.delay_interval[1], "s",
+        "delay_upper": cf_var((), result.delay_interval[1], "s",
                            "upper end of the delay's 95 % interval"),
-        "fitted": var(("pairing", "frequency"), fitted, "1",
+        "fitted": cf_var(("pairing", "frequency"), fitted, "1",
                       "frequency entered the fit (in band, predicted identifiable)"),
-        "frf_data_real": var(fdim, g_data.real, "mixed (see frf_unit)",
+        "frf_data_real": cf_var(fdim, g_data.real, "mixed (see frf_unit)",
                              "identified FRF (the data), real part"),
-        "frf_data_imag": var(fdim, g_data.imag, "mixed (see frf_unit)",
+        "frf_data_imag": cf_var(fdim, g_data.imag, "mixed (see frf_unit)",
                              "identified FRF (the data), imaginary part"),
-        "frf_data_lower_db": var(fdim, stacked(lower), "dB",
+        "frf_data_lower_db": cf_var(fdim, stacked(lower), "dB",
                                  "95 % lower bound of the identified magnitude"),
-        "frf_data_upper_db": var(fdim, stacked(upper), "dB",
+        "frf_data_upper_db": cf_var(fdim, stacked(upper), "dB",
                                  "95 % upper bound of the identified magnitude"),
-        "frf_prior_real": var(fdim, g_prior.real, "mixed (see frf_unit)",
+        "frf_prior_real": cf_var(fdim, g_prior.real, "mixed (see frf_unit)",
                               "model FRF at the prior, real part"),
-        "frf_prior_imag": var(fdim, g_prior.imag, "mixed (see frf_unit)",
+        "frf_prior_imag": cf_var(fdim, g_prior.imag, "mixed (see frf_unit)",
                               "model FRF at the prior, imaginary part"),
-        "frf_fitted_real": var(fdim, g_fit.real, "mixed (see frf_unit)",
+        "frf_fitted_real": cf_var(fdim, g_fit.real, "mixed (see frf_unit)",
                                "fitted model FRF (with the fitted delay), real part"),
-        "frf_fitted_imag": var(fdim, g_fit.imag, "mixed (see frf_unit)",
+        "frf_fitted_imag": cf_var(fdim, g_fit.imag, "mixed (see frf_unit)",
                                "fitted model FRF (with the fitted delay), imaginary part"),
-        "design_rank": var(("candidate",), [r["rank"] for r in design], "1",
+        "design_rank": cf_var(("candidate",), [r["rank"] for r in design], "1",
                            "determined directions with the candidate output added"),
-        "design_identifiable": var(("candidate",), np.array(
+        "design_identifiable": cf_var(("candidate",), np.array(
             [", ".join(r["identifiable"]) for r in design]), "1",
             "free parameters the data would determine with the candidate added"),
     })
     c.update({
-        "pairing": var(("pairing",), np.array([p.name for p in pairings]), "1",
+        "pairing": cf_var(("pairing",), np.array([p.name for p in pairings]), "1",
                        "fitted pairing"),
-        "frequency": var(("frequency",), f, "Hz", "frequency"),
-        "output": var(("output",), np.arange(no), "1", "output index"),
-        "input": var(("input",), np.arange(ni), "1", "input index"),
-        "frf_unit": var(("pairing",), identified.frf_unit.values[rows].astype(str), "1",
+        "frequency": cf_var(("frequency",), f, "Hz", "frequency"),
+        "output": cf_var(("output",), np.arange(no), "1", "output index"),
+        "input": cf_var(("input",), np.arange(ni), "1", "input index"),
+        "frf_unit": cf_var(("pairing",), identified.frf_unit.values[rows].astype(str), "1",
                         "unit of each pairing's FRF"),
-        "candidate": var(("candidate",), np.array(
+        "candidate": cf_var(("candidate",), np.array(
             ["(as fitted)" if r["added"] is None else r["added"] for r in design]), "1",
             "output added by the design help (first: none)"),
     })
