@@ -22,7 +22,8 @@ Precision
     float32 cost, computed from the variable itself.
 Significant bits
     A noisy series stored as float32 keeps only the mantissa bits its noise leaves room
-    for (:func:`kept_bits`): each bit dropped raises the white rounding error by
+    for (:func:`kept_bits`, from the margin of the coarsest float32 grid of the series,
+    at its largest magnitude): each bit dropped raises the white rounding error by
     20 log10(2) = 6.02 dB, so a margin of m dB at float32's 23 bits allows
     floor((m - MARGIN_DB) / 6.02) bits fewer at the same MARGIN_DB. The values are
     rounded to nearest on that coarser grid (netCDF-C's BitRound would do the same but
@@ -134,8 +135,9 @@ def kept_bits(margin_db: float) -> int:
     Parameters
     ----------
     margin_db : float
-        :func:`rounding_margin_db` of the series [dB]: how far float32's rounding (23
-        mantissa bits) lies below the series' spectrum at its closest frequency.
+        How far float32's rounding (23 mantissa bits) lies below the series' spectrum at
+        its closest frequency [dB]: :func:`rounding_margin_db`, or (as the writer does)
+        that of float32's coarsest grid, at the series' largest magnitude.
 
     Returns
     -------
@@ -149,6 +151,21 @@ def kept_bits(margin_db: float) -> int:
     if not np.isfinite(margin_db) or margin_db < MARGIN_DB:
         return _MANTISSA32
     return _MANTISSA32 - min(int((margin_db - MARGIN_DB) // _DB_PER_BIT), _MANTISSA32 - 1)
+
+
+def _coarsest_margin_db(values: np.ndarray, axis: int) -> float:
+    # The margin of float32's coarsest rounding, at the series' largest magnitude, taken as
+    # if it held at every sample: white, of variance ulp^2 / 12, whose Hann-windowed
+    # periodogram line is that variance times the window's energy. A series whose largest
+    # values sit far above its bulk (a residual's raw edges, a ramp over two binades) gets
+    # the bits of its coarsest grid: the measured margin weighs its rounding by time (and
+    # the window all but hides a burst at the ends), so no stretch rounds coarser than
+    # MARGIN_DB allows.
+    x = np.moveaxis(np.asarray(values, dtype=np.float64), axis, -1)
+    bands = min(_BANDS, (x.shape[-1] // 2) // _LINES)
+    ulp = 2.0 ** (np.floor(np.log2(np.max(np.abs(x)))) - _MANTISSA32)
+    line = ulp**2 / 12.0 * float(np.sum(_hann(x.shape[-1]).astype(np.float64) ** 2))
+    return float(10.0 * np.log10(np.min(_band_psd(x, bands)) / line))
 
 
 def _bit_round(values: np.ndarray, bits: int) -> np.ndarray:
@@ -230,7 +247,9 @@ def storage(out: xr.Dataset, float32: bool, noisy: Collection[str],
                 enc["dtype"] = "float32"
                 # a stage's float32 series named noisy too drops the bits its noise allows
                 roomy = margin if margin is not None and margin >= MARGIN_DB else None
-                bits = kept_bits(roomy) if roomy is not None else _MANTISSA32
+                bits = (kept_bits(_coarsest_margin_db(var.values,
+                                                      var.get_axis_num(sample_dim)))
+                        if roomy is not None else _MANTISSA32)
                 with np.errstate(over="ignore"):
                     stored = _bit_round(var.values, bits)
                 note = _float32_note(var, stored, roomy, bits)
