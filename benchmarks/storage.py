@@ -26,6 +26,7 @@ import argparse
 import sys
 import tempfile
 import time
+import timeit
 from pathlib import Path
 
 import numpy as np
@@ -41,12 +42,7 @@ from gbpipe.io.cf import encode  # noqa: E402
 
 
 def _cpu(fn, repeats: int = 3) -> float:
-    best = np.inf
-    for _ in range(repeats):
-        t = time.process_time()
-        fn()
-        best = min(best, time.process_time() - t)
-    return best
+    return min(timeit.repeat(fn, timer=time.process_time, number=1, repeat=repeats))
 
 
 def _raw(ds: xr.Dataset, path: Path) -> None:

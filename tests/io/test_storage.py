@@ -25,11 +25,13 @@ def _record(series: dict[str, np.ndarray]) -> xr.Dataset:
         coords={"time": ("time", t, {"units": "s", "long_name": "time from record start"})})
 
 
-def _dropped_bits(words: np.ndarray) -> int:
-    """Mantissa bits zero in every stored float32 (bit patterns as uint32): the fewest
-    trailing zeros of any nonzero mantissa (its lowest set bit, w & -w)."""
-    mantissa = words[words & 0x7FFFFF != 0]
-    return int(np.log2(mantissa & (~mantissa + np.uint32(1))).min())
+def _step(stored: np.ndarray) -> float:
+    """The largest power of two of which every stored value is a multiple."""
+    v = stored.astype(np.float64)
+    k = 40
+    while not np.all(np.mod(v, 2.0**k) == 0):
+        k -= 1
+    return 2.0**k
 
 
 def _ulp32(x: float) -> float:
@@ -50,15 +52,13 @@ def test_noisy_series_is_float32_within_the_declared_rounding_below_its_noise(
     path = io.write(_record({"x": x}), tmp_path / "a.nc", stage="unit", noisy=["x"])
     with netCDF4.Dataset(path) as nc:
         assert nc["x"].dtype == np.float32
-        words = nc["x"][:].data.view(np.uint32)
-    bits = 23 - _dropped_bits(words)
+        stored = nc["x"][:].data
+    q = _step(stored)
     back = io.read(path)
     err = back.x.values.astype(np.float64) - x
-    # round to nearest on the grid of `bits` mantissa bits (after float32's own rounding):
-    # at most half its spacing at the largest magnitude, plus half float32's
+    # round to nearest multiple of q (then float32's own rounding, where finer)
     top = np.max(np.abs(x))
-    half = 0.5 * _ulp32(top) * 2.0 ** (23 - bits)
-    assert np.max(np.abs(err)) <= half + (0.5 * _ulp32(top) if bits < 23 else 0.0)
+    assert np.max(np.abs(err)) <= 0.5 * q + 0.5 * _ulp32(top)
     # the declared bound holds, and is no wider than the error there is (65536 draws of
     # a uniform rounding error reach within 1e-3 of its end)
     declared = float(re.search(r"rounding error at most ([0-9.e+-]+)",
@@ -69,39 +69,37 @@ def test_noisy_series_is_float32_within_the_declared_rounding_below_its_noise(
     f, pxx = signal.welch(x, FS, nperseg=1024)
     _, pee = signal.welch(err, FS, nperseg=1024)
     margin = 10 * np.log10(np.min(pxx[1:] / pee[1:]))
-    assert margin >= io.MARGIN_DB - 2.0, (margin, bits)
-    # the writer kept the fewest bits whose coarsest grid (at the largest magnitude) rounds
-    # MARGIN_DB under the noise: one bit less would not (3 dB: the writer's estimate of
-    # the noise floor is the smallest of 512 bands of 64 lines)
-    grid = 2 * half
-    assert grid / np.sqrt(12) <= sigma * 10 ** (-(io.MARGIN_DB - 2.0) / 20), grid
-    assert bits == 23 or 2 * grid / np.sqrt(12) > sigma * 10 ** (-(io.MARGIN_DB + 4.0) / 20)
+    assert margin >= io.MARGIN_DB - 2.0, (margin, q)
+    # q is the largest power of two whose rounding (rms q / sqrt 12) lies MARGIN_DB under
+    # the noise: twice q would not (4 dB: the writer's estimate of the floor is the
+    # smallest of 512 bands of 64 lines)
+    assert q / np.sqrt(12) <= sigma * 10 ** (-(io.MARGIN_DB - 2.0) / 20), q
+    assert 2 * q / np.sqrt(12) > sigma * 10 ** (-(io.MARGIN_DB + 4.0) / 20), q
     # and its rms lies MARGIN_DB under the sensor noise the test drew
     assert np.std(err) < sigma * 10 ** (-(io.MARGIN_DB - 2.0) / 20)
 
 
-def test_kept_bits_round_to_nearest_on_the_coarser_grid(tmp_path):
-    # every value in [64, 128): one binade, so the kept grid is one spacing, 2^(6 - bits)
-    x = 117.0 + 2e-3 * np.random.default_rng(8).standard_normal(N)
+def test_rounded_to_nearest_multiple_of_a_power_of_two(tmp_path):
+    sigma = 2e-3
+    x = 117.0 + sigma * np.random.default_rng(8).standard_normal(N)
     path = io.write(_record({"x": x}), tmp_path / "a.nc", stage="unit", noisy=["x"])
     with netCDF4.Dataset(path) as nc:
         stored = nc["x"][:].data
-    # 59 dB at float32 (2e-3 rms over 7.6e-6 / sqrt 12): 3 bits to spare at 40 dB
-    bits = 23 - int(np.floor((20 * np.log10(2e-3 / (_ulp32(117.0) / np.sqrt(12))) - 40)
-                             / (20 * np.log10(2))))
-    assert 23 - _dropped_bits(stored.view(np.uint32)) in (bits - 1, bits, bits + 1)
-    grid = _ulp32(117.0) * 2.0 ** _dropped_bits(stored.view(np.uint32))
-    # round half up on that grid, from the float32 value (positive values only here)
-    expected = np.floor(x.astype(np.float32).astype(np.float64) / grid + 0.5) * grid
-    np.testing.assert_array_equal(stored.astype(np.float64), expected)
+    q = _step(stored)
+    # closed form for white noise: the largest 2^k with 2^k / sqrt(12) <= sigma / 100,
+    # or half that where the estimated floor scatters low
+    expected = 2.0 ** np.floor(np.log2(sigma * np.sqrt(12) * 10 ** (-io.MARGIN_DB / 20)))
+    assert q in (expected / 2, expected), (q, expected)
+    # every value is the nearest multiple of q (no value lies on a tie here)
+    np.testing.assert_array_equal(stored.astype(np.float64), np.round(x / q) * q)
 
 
 def test_no_stretch_rounds_coarser_than_the_margin_allows(tmp_path):
     # a residual: white noise of rms sigma about 0, and 0.2 % of raw samples at 16 kN·m
-    # on its edges (where the removal did not reach). Averaged over the series, a grid
-    # 2^14 times coarser there would still pass the spectral margin; the writer keeps the
-    # bits for that coarsest grid: its rounding (uniform, rms grid / sqrt 12) lies
-    # MARGIN_DB under the noise, so the edges keep their own noise's precision too.
+    # on its edges (where the removal did not reach). Averaged over the series, a
+    # relative rounding 2^6 times coarser there would still pass the spectral margin; the
+    # writer's step is absolute: its rounding (uniform, rms q / sqrt 12) lies MARGIN_DB
+    # under the noise at the edges as in the bulk.
     sigma = 300.0
     x = sigma * np.random.default_rng(9).standard_normal(N)
     x[:64] += 16250.0
@@ -109,13 +107,14 @@ def test_no_stretch_rounds_coarser_than_the_margin_allows(tmp_path):
     path = io.write(_record({"x": x}), tmp_path / "a.nc", stage="unit", noisy=["x"])
     with netCDF4.Dataset(path) as nc:
         stored = nc["x"][:].data
-    grid = _ulp32(np.max(np.abs(x))) * 2.0 ** _dropped_bits(stored.view(np.uint32))
-    assert grid / np.sqrt(12) <= sigma * 10 ** (-(io.MARGIN_DB - 2.0) / 20), grid
-    # and at most one bit more than that needs (the smallest of 512 band estimates of 64
-    # lines each lies up to ~3 dB under the noise floor): the 16 kN·m edges set the grid
-    assert 2 * grid / np.sqrt(12) > sigma * 10 ** (-(io.MARGIN_DB + 4.0) / 20), grid
-    edge = np.abs(stored[:64].astype(np.float64) - x[:64])
-    assert np.max(edge) <= 0.5 * grid
+    q = _step(stored)
+    assert q / np.sqrt(12) <= sigma * 10 ** (-(io.MARGIN_DB - 2.0) / 20), q
+    # and no finer than that needs (the smallest of 512 band estimates of 64 lines each
+    # lies up to ~3 dB under the noise floor)
+    assert 2 * q / np.sqrt(12) > sigma * 10 ** (-(io.MARGIN_DB + 4.0) / 20), q
+    # the edges rounded as finely as the bulk: the same absolute step
+    edges = np.r_[:64, N - 64:N]
+    assert np.max(np.abs(stored[edges].astype(np.float64) - x[edges])) <= 0.5 * q
 
 
 @pytest.mark.parametrize("offset, sigma", CASES)
@@ -169,18 +168,15 @@ def test_compression_is_applied_and_pays(tmp_path):
         for name in ("time", "x"):
             filters = nc[name].filters()
             assert filters["zlib"] and filters["shuffle"] and filters["complevel"] == 1, name
-        words = nc["x"][:].data.view(np.uint32)
+        q = _step(nc["x"][:].data)
     with h5py.File(path) as h5:
         stored = {name: h5[name].id.get_storage_size() for name in ("time", "x")}
-    # the grid the values lie on: float32's spacing at 117, times 2 per mantissa bit
-    # dropped (the fewest trailing zero bits of any stored value)
-    ulp = _ulp32(117.0) * 2.0 ** _dropped_bits(words)
-    # Entropy bound: values of Gaussian noise of rms sigma on a grid of spacing ulp carry
-    # log2(sigma sqrt(2 pi e) / ulp) bits each (10.1 of 32 at float32's spacing, 3 bits
-    # fewer on the grid the writer keeps here), so x cannot shrink below that; zlib on
+    # Entropy bound: values of Gaussian noise of rms sigma on a grid of step q carry
+    # log2(sigma sqrt(2 pi e) / q) bits each (10.1 of 32 at float32's spacing at 117, 3
+    # bits fewer on the writer's step here), so x cannot shrink below that; zlib on
     # shuffled bytes gets within 1.6x of it (its Huffman stage codes each byte plane
     # apart).
-    bits = np.log2(sigma * np.sqrt(2 * np.pi * np.e) / ulp)
+    bits = np.log2(sigma * np.sqrt(2 * np.pi * np.e) / q)
     bound = N * bits / 8
     assert bound < stored["x"] < 1.6 * bound, (stored["x"], bound)
     # a regular time axis is near all redundancy: shuffled, its bytes repeat

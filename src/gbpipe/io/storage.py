@@ -20,19 +20,17 @@ Precision
     series without noise (a sensor-noise level of 0, a record that holds only a smooth
     response) fails the test and stays float64. The variable's ``comment`` says what
     float32 cost, computed from the variable itself.
-Significant bits
-    A noisy series stored as float32 keeps only the mantissa bits its noise leaves room
-    for (:func:`kept_bits`, from the margin of the coarsest float32 grid of the series,
-    at its largest magnitude): each bit dropped raises the white rounding error by
-    20 log10(2) = 6.02 dB, so a margin of m dB at float32's 23 bits allows
-    floor((m - MARGIN_DB) / 6.02) bits fewer at the same MARGIN_DB. The values are
-    rounded to nearest on that coarser grid (netCDF-C's BitRound would do the same but
-    marks the variable with ``_QuantizeBitRoundNumberOfSignificantBits``, an attribute
-    name CF forbids), so the bits dropped are zero, every reader reads the values as they
-    are, and the shuffled zlib stream holds those zero bits for almost nothing: a sensor
-    whose
-    noise lies 60-110 dB above float32's rounding (torques with 10 N·m of noise at
-    16 kN·m) keeps 12-20 of 23 bits, and its stored series shrinks by a third to a half.
+Rounding step
+    A noisy series stored as float32 is first rounded to a step q (:func:`quantum`): the
+    largest power of two whose white rounding error (variance q^2/12) lies MARGIN_DB
+    under the series' noise floor (the smallest band of its spectrum). An absolute step,
+    as an ADC's, not a relative one: a residual about 0 with raw edges at 16 kN·m is
+    rounded as finely everywhere. The multiples of a power of two leave the low mantissa
+    bits zero (a value v keeps log2(|v|/q) of them), which the shuffled zlib stream all
+    but removes: a torque with 10 N·m of noise at 16 kN·m keeps 16 of float32's 23
+    bits, and its stored series shrinks by a third. netCDF-C's BitRound, the library's
+    own quantisation, keeps a number of bits relative to each value instead, and marks
+    the variable with ``_QuantizeBitRoundNumberOfSignificantBits``, a name CF forbids.
 """
 
 from __future__ import annotations
@@ -45,7 +43,7 @@ import numpy as np
 import xarray as xr
 from scipy.fft import rfft
 
-__all__ = ["MARGIN_DB", "kept_bits", "rounding_margin_db", "storage"]
+__all__ = ["MARGIN_DB", "quantum", "rounding_margin_db", "storage"]
 
 #: Least distance [dB] between a noisy series' power spectral density and its float32
 #: rounding error's, at every frequency, for float32 storage.
@@ -55,9 +53,6 @@ MARGIN_DB = 40.0
 _BANDS = 512
 _LINES = 16
 _DEFLATE = {"zlib": True, "complevel": 1, "shuffle": True}
-# float32's explicit mantissa bits, and what one bit less costs in rounding power [dB]
-_MANTISSA32 = 23
-_DB_PER_BIT = 20.0 * np.log10(2.0)
 
 
 @lru_cache(maxsize=4)
@@ -129,75 +124,53 @@ def rounding_margin_db(values: np.ndarray, axis: int = -1) -> float:
         return float(10.0 * np.log10(np.min(ratio)))
 
 
-def kept_bits(margin_db: float) -> int:
-    """Mantissa bits of float32 a noisy series needs to stay :data:`MARGIN_DB` clear.
+def quantum(values: np.ndarray, axis: int = -1) -> float:
+    """The step a noisy series is rounded to before it is stored [its unit].
 
     Parameters
     ----------
-    margin_db : float
-        How far float32's rounding (23 mantissa bits) lies below the series' spectrum at
-        its closest frequency [dB]: :func:`rounding_margin_db`, or (as the writer does)
-        that of float32's coarsest grid, at the series' largest magnitude.
+    values, axis
+        As for :func:`rounding_margin_db`.
 
     Returns
     -------
-    int
-        Mantissa bits to keep, 1-23: 23 less one bit per 20 log10(2) = 6.02 dB of margin
-        above :data:`MARGIN_DB` (rounding to fewer bits is as white as float32's, with
-        4 times the power per bit, while the noise stays above the coarser grid's
-        spacing: 40 dB puts the noise's rms 100 times over the rounding's). 23 below
-        the margin or where it is not finite.
+    float
+        The largest power of two q whose rounding error (uniform, white, variance
+        q^2 / 12) lies :data:`MARGIN_DB` under the series' noise floor: the smallest
+        band of its power spectral density above 0 Hz (estimated as in
+        :func:`rounding_margin_db`), as the variance of white noise with that density.
+        An absolute step, as an ADC's: the bulk of a residual about 0 and its raw
+        edges at 16 kN·m are rounded alike, each as finely as the noise asks. 0.0 where
+        the series has no floor to measure (too short, not finite, a band of zero power).
     """
-    if not np.isfinite(margin_db) or margin_db < MARGIN_DB:
-        return _MANTISSA32
-    return _MANTISSA32 - min(int((margin_db - MARGIN_DB) // _DB_PER_BIT), _MANTISSA32 - 1)
-
-
-def _coarsest_margin_db(values: np.ndarray, axis: int) -> float:
-    # The margin of float32's coarsest rounding, at the series' largest magnitude, taken as
-    # if it held at every sample: white, of variance ulp^2 / 12, whose Hann-windowed
-    # periodogram line is that variance times the window's energy. A series whose largest
-    # values sit far above its bulk (a residual's raw edges, a ramp over two binades) gets
-    # the bits of its coarsest grid: the measured margin weighs its rounding by time (and
-    # the window all but hides a burst at the ends), so no stretch rounds coarser than
-    # MARGIN_DB allows.
     x = np.moveaxis(np.asarray(values, dtype=np.float64), axis, -1)
     bands = min(_BANDS, (x.shape[-1] // 2) // _LINES)
-    ulp = 2.0 ** (np.floor(np.log2(np.max(np.abs(x)))) - _MANTISSA32)
-    line = ulp**2 / 12.0 * float(np.sum(_hann(x.shape[-1]).astype(np.float64) ** 2))
-    return float(10.0 * np.log10(np.min(_band_psd(x, bands)) / line))
-
-
-def _bit_round(values: np.ndarray, bits: int) -> np.ndarray:
-    # float32 rounded to nearest (ties away from zero) on the grid of `bits` mantissa
-    # bits: add half of the last bit kept to the bit pattern, then clear the bits below
-    # it. A carry into the exponent is the next binade's value, as rounding wants.
-    x = np.asarray(values, dtype=np.float64).astype(np.float32)
-    drop = _MANTISSA32 - bits
-    if drop <= 0:
-        return x
-    word = x.view(np.uint32) + np.uint32(1 << (drop - 1))
-    return (word & np.uint32(0xFFFFFFFF ^ ((1 << drop) - 1))).view(np.float32)
+    if bands < 1 or not np.all(np.isfinite(x)):
+        return 0.0
+    # a white series of variance v has periodogram lines v times the window's energy
+    energy = float(np.sum(_hann(x.shape[-1]).astype(np.float64) ** 2))
+    floor = float(np.min(_band_psd(x, bands))) / energy
+    if not floor > 0.0:
+        return 0.0
+    return float(2.0 ** np.floor(np.log2(np.sqrt(12.0 * floor) * 10 ** (-MARGIN_DB / 20))))
 
 
 def _float32_note(var: xr.DataArray, stored: np.ndarray, margin: float | None,
-                  bits: int) -> str:
+                  step: float) -> str:
     x = np.asarray(var.values, dtype=np.float64)
     err = np.abs(x - stored.astype(np.float64))
     units = var.attrs.get("gbpipe_units", var.attrs.get("units", ""))
     worst = float(np.max(err)) if err.size else 0.0
     top = float(np.max(np.abs(x))) if x.size else 0.0
-    kind = f"float32 with {bits} of 23 mantissa bits" if bits < _MANTISSA32 else "float32"
+    kind = f"float32, rounded to multiples of {step:.6g} {units}" if step else "float32"
     text = (f"stored as {kind}: rounding error at most {worst:.3g} {units}, "
             f"{worst / top if top else 0.0:.2g} of the largest magnitude {top:.6g} {units}")
     if margin is None:
         return f"{text} (the producing stage's choice for every variable)."
-    left = margin - (_MANTISSA32 - bits) * _DB_PER_BIT
-    return (f"{text}; the rounding error's power spectral density lies {left:.0f} dB or "
-            f"more below the series' own at every frequency above 0 Hz ({margin:.0f} dB "
-            f"at float32's 23 bits; a noisy series is stored as float32 only from "
-            f"{MARGIN_DB:.0f} dB, and keeps the fewest bits that stay {MARGIN_DB:.0f} dB "
-            f"clear).")
+    return (f"{text}; float32's rounding lies {margin:.0f} dB below the series' power "
+            f"spectral density at every frequency above 0 Hz (a noisy series is stored as "
+            f"float32 only from {MARGIN_DB:.0f} dB), and the step's white rounding error "
+            f"{MARGIN_DB:.0f} dB or more below its noise floor.")
 
 
 def storage(out: xr.Dataset, float32: bool, noisy: Collection[str],
@@ -213,15 +186,15 @@ def storage(out: xr.Dataset, float32: bool, noisy: Collection[str],
     noisy : collection of str
         Data variables on ``sample_dim`` to store as float32 where
         :func:`rounding_margin_db` along ``sample_dim`` reaches :data:`MARGIN_DB`, with
-        the mantissa bits :func:`kept_bits` gives (also under ``float32``).
+        the values rounded to the step :func:`quantum` gives (also under ``float32``).
     sample_dim : str
         The on-disk name of the time axis.
 
     Returns
     -------
     out : xarray.Dataset
-        ``out`` with each variable stored as float32 in float32, rounded to the bits it
-        keeps, and a ``comment`` saying what that cost.
+        ``out`` with each variable stored as float32 in float32 (a noisy one rounded to
+        its step), and a ``comment`` saying what that cost.
     encoding : dict
         Per variable: ``dtype``, compression and ``_FillValue``.
 
@@ -245,14 +218,14 @@ def storage(out: xr.Dataset, float32: bool, noisy: Collection[str],
                       if name in noisy else None)
             if float32 or (margin is not None and margin >= MARGIN_DB):
                 enc["dtype"] = "float32"
-                # a stage's float32 series named noisy too drops the bits its noise allows
+                # a stage's float32 series named noisy too is rounded as its noise allows
                 roomy = margin if margin is not None and margin >= MARGIN_DB else None
-                bits = (kept_bits(_coarsest_margin_db(var.values,
-                                                      var.get_axis_num(sample_dim)))
-                        if roomy is not None else _MANTISSA32)
+                step = quantum(var.values, var.get_axis_num(sample_dim)) if roomy else 0.0
+                exact = np.asarray(var.values, dtype=np.float64)
                 with np.errstate(over="ignore"):
-                    stored = _bit_round(var.values, bits)
-                note = _float32_note(var, stored, roomy, bits)
+                    stored = (np.round(exact / step) * step if step else exact).astype(
+                        np.float32)
+                note = _float32_note(var, stored, roomy, step)
                 attrs = dict(var.attrs)
                 attrs["comment"] = f"{attrs['comment']}\n{note}" if "comment" in attrs else note
                 out[name] = var.copy(data=stored)
