@@ -7,15 +7,16 @@ alternation so that the machine's drift falls on each alike:
 * ``raw``: every variable as the simulation made it (float64), uncompressed (xarray's
   ``to_netcdf`` of the CF-encoded dataset): the results' first form, 1.1 GB for the run;
 * ``gbpipe``: :func:`gbpipe.io.write` as rule ``campaign`` calls it (the measured-like
-  series named noisy): float32 with the mantissa bits each series' noise leaves room
-  for, zlib level 1 after the byte shuffle;
+  series named noisy): float32 on the step each series' noise leaves room for, zlib
+  level 1 after the byte shuffle;
 * ``gbpipe float64``: :func:`gbpipe.io.write` without naming any series noisy (every
   series float64, compressed): what the clean series cost.
 
 Printed per case and way: file size [MB], CPU time of the write and of
 :func:`gbpipe.io.read` [ms] (``time.process_time``, best of 3), and for ``gbpipe`` the
-mantissa bits each measured-like series kept with its stored rounding error's margin
-under the series' spectrum (Welch, computed here from the stored values).
+mantissa bits each measured-like series uses at most (its values are multiples of a
+power-of-two step, :func:`gbpipe.io.storage.quantum`) with its stored rounding error's
+margin under the series' spectrum (Welch, computed here from the stored values).
 
 Usage: ``OMP_NUM_THREADS=1 python benchmarks/storage.py [--scales 0.1 1 10]``.
 """
