@@ -1,5 +1,6 @@
-"""On-disk form of gbpipe.io.write: float32 only where a series' noise leaves room
-(against closed forms of float32 rounding), compression applied, plain seconds on time."""
+"""On-disk form of gbpipe.io.write: float32 only where a series' noise leaves room, rounded
+to the power-of-two step its noise floor allows (against closed forms of the rounding),
+compression applied, plain seconds on time."""
 
 from __future__ import annotations
 
