@@ -28,4 +28,6 @@ for (method, ds), path in zip(done.items(), snakemake.output.nc, strict=True):
              config={"method_cfg": p.method_cfg[method], "families_cfg": p.families_cfg,
                      "spectra": p.spectra},
              wildcards={"method": method}, float32=True,
+             # the residual keeps the sweep's sensor noise: only the bits it leaves room for
+             noisy=[v for v in ds.data_vars if ds[v].dims == ("time",)],
              title=f"Harmonic removal by {method} on the sweep, against the random-only sweep")

@@ -17,6 +17,9 @@ for random_only, path in runs:
     # the config slice of each file as when each had a job of its own
     io.write(ds, path, sources=snakemake.input, stage="sweep",
              config={"cfg": p.cfg, "random_only": random_only}, float32=True,
+             # every series rounded as finely as its noise asks (the data decide: the
+             # smooth speeds keep float32, the motor torques' broadband ripple 12 bits)
+             noisy=[v for v in ds.data_vars if ds[v].dims == ("time",)],
              title=f"Speed sweep at constant torque, {what}")
     log.info("%s sweep: %d samples, %d pulses, %.0f-%.0f rpm", what, ds.time.size,
              ds.pulse.size, float(ds.rpm.min()), float(ds.rpm.max()))

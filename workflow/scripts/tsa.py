@@ -18,7 +18,9 @@ for variant, tsa in p.tsa.items():
                                            strict=True)))
 config = {k: v for k, v in dict(p).items() if k not in ("tsa", "variants")}
 for (variant, ds), path in zip(done.items(), snakemake.output.nc, strict=True):
-    # each file's provenance: the config slice of its own variant, as one job per variant had
+    # each file's provenance: the config slice of its own variant, as one job per variant
+    # had; the residual keeps the sweep's sensor noise: only the bits it leaves room for
     io.write(ds, path, sources=snakemake.input, stage="tsa",
              config={"tsa": p.tsa[variant], **config}, wildcards={"variant": variant},
-             float32=True, title=f"TSA harmonic removal on the sweep, variant {variant}")
+             float32=True, noisy=[v for v in ds.data_vars if ds[v].dims == ("time",)],
+             title=f"TSA harmonic removal on the sweep, variant {variant}")

@@ -70,9 +70,11 @@ def write(
         Measured(-like) time series (data variables on ``time``): each is stored as
         float32 where its rounding error lies at least
         :data:`gbpipe.io.storage.MARGIN_DB` below the series' own power spectral density
-        at every frequency (its noise floor leaves room), else as float64; its
-        ``comment`` says which margin it had. Never name a series that another computation
-        compares exactly (a noise-free reference).
+        at every frequency (its noise floor leaves room), else as float64, and is
+        rounded to the largest power-of-two step whose rounding lies that far under its
+        noise floor (:func:`gbpipe.io.storage.quantum`); its ``comment`` says the step,
+        the error and the margin. Also under ``float32``. Never
+        name a series that another computation compares exactly (a noise-free reference).
 
     Returns
     -------
