@@ -176,8 +176,8 @@ def test_worst_crossing_without_a_finite_crossing_bin_falls_back():
     datasets = {m: ds.assign(change_db=ds.change_db.where(ds.rpm != ds.rpm[1]))
                 for m, ds in datasets.items()}
     band, rpm, crossed = removal_plots.worst_crossing(datasets)
-    worst = np.nanmax(np.stack([np.abs(ds.change_db.values[:1]) for ds in datasets.values()]),
-                      axis=0)
+    worst = np.fmax.reduce(np.stack([np.abs(ds.change_db.values[:1])
+                                     for ds in datasets.values()]), axis=0)
     assert (band, rpm, crossed) == (0, int(np.nanargmax(worst)), False)
     empty = {m: ds.assign(change_db=ds.change_db * np.nan) for m, ds in datasets.items()}
     with pytest.raises(DataError, match="change_db"):

@@ -189,8 +189,9 @@ def worst_crossing(datasets: Mapping[str, xr.Dataset]) -> tuple[int, int, bool]:
         Whether that bin is a crossing.
     """
     first = next(iter(datasets.values()))
-    change = np.nanmax(np.stack([np.abs(ds.change_db.transpose("band", "rpm").values)
-                                 for ds in datasets.values()]), axis=0)
+    # fmax: NaN only where every method's change is NaN (no all-NaN warning)
+    change = np.fmax.reduce(np.stack([np.abs(ds.change_db.transpose("band", "rpm").values)
+                                      for ds in datasets.values()]), axis=0)
     change[first.band.values == "elsewhere"] = np.nan
     crossed = np.isfinite(first.crossing_order.transpose("family", "band", "rpm").values
                           ).any(axis=0)

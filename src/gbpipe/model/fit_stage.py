@@ -21,13 +21,15 @@ import xarray as xr
 from gbpipe.errors import DataError
 from gbpipe.lti import pad
 from gbpipe.model.assembly import bench_ss
-from gbpipe.model.fit import FitResult
-from gbpipe.model.fit_report import cf_var, result_variables
+from gbpipe.model.fit import FitResult, fit_parameters
+from gbpipe.model.fit_bands import jackknife_intervals
+from gbpipe.model.fit_modes import read_modes_table
+from gbpipe.model.fit_report import cf_var, modal_fit_dataset, result_variables
 from gbpipe.model.frf import MOTOR_INPUTS, Pairing, pairing_frf
 from gbpipe.model.frf_data import FrfData, sigma_from_bounds
 from gbpipe.model.identifiability import design_outputs
 
-__all__ = ["fit_data", "fit_dataset", "assessable_band", "WEIGHTS",
+__all__ = ["fit_data", "fit_dataset", "fit_record", "assessable_band", "WEIGHTS",
            "CANDIDATE_OUTPUTS"]
 
 log = logging.getLogger(__name__)
@@ -245,3 +247,76 @@ def fit_dataset(result: FitResult, data: Sequence[FrfData], prior_cfg: Mapping[s
             "output added by the design help (first: none)"),
     })
     return xr.Dataset(v, coords=c, attrs={**attrs, "data": "frf", "version": version})
+
+
+def fit_record(cfg: Mapping[str, Any], prior: Mapping[str, Any], *,
+               identified: xr.Dataset | None = None, design: xr.Dataset | None = None,
+               modes_file: str | None = None) -> tuple[FitResult, xr.Dataset]:
+    """One record's fit (rule ``fit``): the data, the fit, its log and its dataset.
+
+    Parameters
+    ----------
+    cfg : mapping
+        The rule's config slice: ``fit``, ``pairings`` (of ``identify``), ``seed``.
+    prior : mapping
+        The configuration the fit starts from (``fit.start`` merged).
+    identified : xarray.Dataset, optional
+        The record's identify output (``fit.data: frf``).
+    design : xarray.Dataset, optional
+        The design output of a simulated record: its predicted identifiable band. A bench
+        record (None) is fitted where its nonparametric FRF is coherent.
+    modes_file : str, optional
+        The modal table (``fit.data: modes``).
+
+    Returns
+    -------
+    result : FitResult
+    dataset : xarray.Dataset
+        :func:`fit_dataset` or :func:`gbpipe.model.modal_fit_dataset`.
+    """
+    fit = cfg["fit"]
+    pairings = [Pairing.from_config(q) for q in cfg["pairings"]]
+    common = {"bounds": fit["bounds"], "factor": fit["factor"], "n_starts": fit["starts"],
+              "seed": cfg["seed"], "search": fit["search"], "alpha": fit["alpha"],
+              "accuracy": fit["accuracy"]}
+    if fit["data"] == "modes":
+        m = fit["modes"]
+        system = next((q for q in pairings if q.name == m["system"]), None)
+        data = read_modes_table(modes_file, m["pairing"], m["method"], system,
+                                tuple(m["band"]))
+        log.info("fitting %s from the prior (fit.start) to %d modes of %s (%s)",
+                 ", ".join(fit["free"]), data.frequency_hz.size, modes_file, m["system"])
+        res = fit_parameters(prior, data, fit["free"], **common)
+    else:
+        band = (design.identifiable.sel(version=fit["version"]) if design is not None
+                else assessable_band(identified, fit["version"]))
+        data = fit_data(identified, band, pairings, fit["version"], fit["band"],
+                        fit["weight"])
+        log.info("fitting %s from the prior (fit.start) to %d pairings, version %s",
+                 ", ".join(fit["free"]), len(data), fit["version"])
+        res = fit_parameters(prior, data, fit["free"], delay=fit["delay"],
+                             max_delay=fit["max_delay"], **common)
+        if fit["jackknife"]:
+            res = jackknife_intervals(res, data, fit["jackknife"], delay=fit["delay"],
+                                      max_delay=fit["max_delay"])
+    log.info("cost %.4g at the prior, %.4g fitted, %d model evaluations (%s)\n%s",
+             res.cost_prior, res.cost, res.n_evaluations, res.search, res.table())
+    g = res.goodness
+    (log.warning if g.status == "poor" else log.info)("goodness of fit: %s: %s", g.status,
+                                                      g.reason)
+    for name, share, count in zip(g.groups, g.group_share, g.group_count_share,
+                                  strict=True):
+        log.info("  %s: %.1f %% of chi2 (%.1f %% of the residuals)", name, 100 * share,
+                 100 * count)
+    for k, share in enumerate(g.band_share):
+        log.info("  %.4g-%.4g Hz: %.1f %% of chi2 (%.1f %% of the residuals)",
+                 g.band_edges[k], g.band_edges[k + 1], 100 * share,
+                 100 * g.band_count_share[k])
+    ds = (modal_fit_dataset(res, m["system"], prior) if fit["data"] == "modes"
+          else fit_dataset(res, data, prior, identified, fit["version"]))
+    if "design_rank" in ds:
+        for added, rank, names in zip(ds.candidate.values, ds.design_rank.values,
+                                      ds.design_identifiable.values, strict=True):
+            log.info("design help: %s -> %d of %d directions determined (%s)", added,
+                     rank, len(fit["free"]), names or "none")
+    return res, ds
