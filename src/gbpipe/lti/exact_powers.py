@@ -1,15 +1,21 @@
 """Matrix powers and Krylov products correct to the last bit of ``np.longdouble``, by
-integer arithmetic.
+exact integer arithmetic in float64 limbs.
 
 The chain ``A^(k+1) = A A^k`` in floating point loses digits where its products cancel:
 an entry of ``A A^k`` far smaller than the same entry of ``|A| |A^k|`` (the transient
 growth of a strongly non-normal ``A``, e.g. eigenvector condition 1e6 with ``||A||`` of
 1e4 and ``||A^k||`` of 1e5) keeps only the digits the cancellation left. Here every
 matrix is an integer matrix times a power of two (fixed point, ``_BITS`` bits below the
-largest entry): Python's unbounded integers multiply and add exactly (numpy object
-arrays), and each product is truncated once to ``_BITS`` bits. The truncation, 2^-160 of
-the largest entry, stays far below the 2^-64 rounding of ``np.longdouble`` even after a
-cancellation by 2^90, so the results are the exact ones, rounded once.
+largest entry), and each product is exact, then truncated once to ``_BITS`` bits. The
+truncation, 2^-160 of the largest entry, stays far below the 2^-64 rounding of
+``np.longdouble`` even after a cancellation by 2^90, so the results are the exact ones,
+rounded once (to within one unit of the last place of ``np.longdouble``).
+
+The integers are held as ``_LIMBS`` limbs of ``_W`` bits (an integer array of shape
+``(_LIMBS, ...)``, value ``sum_c limb_c 2^(_W c)``, every limb carrying the entry's sign).
+A product of two limb matrices is one float64 matrix product of all limb pairs: each
+partial sum is an integer below ``k 2^(2 _W)`` < 2^53 for inner sizes ``k`` < 8192, so
+BLAS computes it exactly in any order. The limb sums and carries run in int64.
 
 Used by :mod:`gbpipe.lti.simulation` for the systems whose powers cancel.
 """
@@ -22,53 +28,104 @@ __all__ = ["exact_krylov", "exact_power"]
 
 # Bits kept below the largest entry of each power (see the module docstring).
 _BITS = 160
+# Bits per limb: a limb product is below 2^40, a float64 sum of k of them exact for
+# k < 2^13 (the inner size of a product: the state count).
+_W = 20
+_LIMBS = -(-_BITS // _W)
+_MAX_INNER = 1 << (53 - 2 * _W)
 # Significand bits of a long double (x87 extended: 64; where long double is the float64
-# itself, 53): the conversions below keep exactly this many bits.
+# itself, 53).
 _MANT = int(np.finfo(np.longdouble).nmant) + 1
-_HALF = 1 << 32
+
+# A fixed-point matrix: (limbs, s) with value sum_c limbs[c] 2^(_W c) 2^-s.
+_Fixed = tuple[np.ndarray, int]
 
 
-def _to_fixed(a: np.ndarray) -> tuple[np.ndarray, int]:
-    """``(M, s)`` with ``a = M 2^-s`` exactly, ``M`` an object array of Python ints."""
-    mant, expo = np.frexp(np.asarray(a, dtype=np.longdouble))
-    top = int(expo.max()) if np.any(mant) else 0
-    s = _BITS - top
-    ints = np.empty(a.shape, dtype=object)
-    for idx, (m, e) in enumerate(zip(mant.flat, expo.flat, strict=True)):
-        # m 2^MANT is an integer (the significand); int() of a long double is exact
-        v = int(np.ldexp(m, _MANT))
-        shift = int(e) - _MANT + s
-        # entries below 2^-_BITS of the largest are truncated: far below any rounding
-        ints.flat[idx] = v << shift if shift >= 0 else v >> -shift
-    return ints, s
+def _to_fixed(a: np.ndarray) -> _Fixed:
+    """``a`` as limbs scaled so that its largest entry is below 2^_BITS; entries below
+    2^-_BITS of the largest are truncated (far below any rounding)."""
+    a = np.asarray(a, dtype=np.longdouble)
+    _, expo = np.frexp(a)
+    s = _BITS - (int(expo.max()) if np.any(a) else 0)
+    # |a| 2^s < 2^_BITS: each limb is floor(|a| 2^(s - _W c)) mod 2^_W, exact in long
+    # double (a power-of-two scaling of a 64-bit significand, and its floor)
+    mag = np.ldexp(np.abs(a), s)
+    limbs = np.empty((_LIMBS, *a.shape), dtype=np.int64)
+    for c in range(_LIMBS):
+        t = np.floor(np.ldexp(mag, -_W * c))
+        limbs[c] = (t - np.ldexp(np.floor(np.ldexp(t, -_W)), _W)).astype(np.int64)
+    return limbs * np.where(a < 0, -1, 1).astype(np.int64), s
 
 
-def _to_longdouble(ints: np.ndarray, s: int) -> np.ndarray:
-    """``ints 2^-s`` as ``np.longdouble``, each entry truncated to its _MANT top bits."""
-    out = np.empty(ints.shape, dtype=np.longdouble)
-    for idx, v in enumerate(ints.flat):
-        mag = abs(int(v))
-        drop = max(mag.bit_length() - _MANT, 0)
-        q = mag >> drop
-        # np.longdouble(int) goes through float64 (53 bits): assemble two exact halves
-        val = np.longdouble(q // _HALF) * _HALF + np.longdouble(q % _HALF)
-        out.flat[idx] = np.ldexp(-val if v < 0 else val, drop - s)
-    return out
+def _carry(v: np.ndarray) -> np.ndarray:
+    """Limbs of the same integers, every limb but the top in [0, 2^_W) (floor carries,
+    from the lowest limb up)."""
+    v = v.copy()
+    for c in range(len(v) - 1):
+        v[c + 1] += v[c] >> _W
+        v[c] &= (1 << _W) - 1
+    return v
 
 
-def _product(x: tuple[np.ndarray, int], y: tuple[np.ndarray, int]) -> tuple[np.ndarray, int]:
-    """Exact product of two fixed-point matrices, truncated to _BITS bits (relative to
-    the largest entry of the product)."""
-    p = x[0] @ y[0]  # exact: Python ints
-    s_p = x[1] + y[1]
-    drop = max(max(abs(int(v)).bit_length() for v in p.flat) - _BITS, 0)
-    # floor of p 2^-drop: an error below one unit of 2^-_BITS of the largest entry
-    return (p >> drop, s_p - drop) if drop else (p, s_p)
+def _magnitude(raw: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Sign (+1/-1) and limbs in [0, 2^_W) of the integers ``sum_c raw[c] 2^(_W c)``
+    (limbs of any size and sign, with room for the carries in the top limbs)."""
+    v = _carry(raw)
+    sign = np.where(v[-1] < 0, -1, 1).astype(np.int64)  # the top limb holds the sign
+    return sign, _carry(v * sign)
+
+
+def _product(x: _Fixed, y: _Fixed) -> _Fixed:
+    """Exact product of two fixed-point matrices, truncated toward zero to _BITS bits
+    (relative to the largest entry of the product)."""
+    (xl, xs), (yl, ys) = x, y
+    k, n, m = xl.shape[-1], xl.shape[1], yl.shape[-1]
+    if k >= _MAX_INNER:
+        raise ValueError(f"inner size {k} too large for exact limb products "
+                         f"(at most {_MAX_INNER - 1})")
+    # every limb pair in one float64 product, exact (module docstring)
+    pairs = (xl.reshape(_LIMBS * n, k).astype(float)
+             @ yl.transpose(1, 0, 2).reshape(k, _LIMBS * m).astype(float))
+    pairs = pairs.astype(np.int64).reshape(_LIMBS, n, _LIMBS, m)
+    raw = np.zeros((2 * _LIMBS + 2, n, m), dtype=np.int64)  # two limbs for the carries
+    for a in range(_LIMBS):
+        raw[a:a + _LIMBS] += pairs[a].transpose(1, 0, 2)
+    sign, mag = _magnitude(raw)
+    # bits of the largest entry: its top limb's position plus that limb's bit length
+    nonzero = mag != 0
+    if not nonzero.any():
+        return np.zeros((_LIMBS, n, m), dtype=np.int64), xs + ys
+    top = len(mag) - 1 - np.argmax(nonzero[::-1], axis=0)
+    top_limb = np.take_along_axis(mag, top[None], axis=0)[0]
+    bits = int(np.max(np.where(nonzero.any(axis=0),
+                               _W * top + np.frexp(top_limb.astype(float))[1], 0)))
+    drop = max(bits - _BITS, 0)
+    q, r = divmod(drop, _W)
+    # |p| 2^-drop, truncated: whole limbs dropped, then r bits shifted across limbs
+    mag = np.concatenate([mag[q:], np.zeros((q + 1, n, m), dtype=np.int64)])
+    shifted = (mag[:-1] >> r) | ((mag[1:] & ((1 << r) - 1)) << (_W - r))
+    return shifted[:_LIMBS] * sign, xs + ys - drop
+
+
+def _to_longdouble(limbs: np.ndarray, s: int | np.ndarray) -> np.ndarray:
+    """The fixed-point matrices ``limbs 2^-s`` (every limb carrying its entry's sign, as
+    the products leave them) as ``np.longdouble``: the top four limbs of each entry (61 to
+    80 bits), rounded once to the long double's significand."""
+    sign = np.where((limbs < 0).any(axis=0), -1, 1)
+    padded = np.concatenate([np.zeros((3, *limbs.shape[1:]), dtype=np.int64),
+                             np.abs(limbs)])
+    # each entry's own top limb (index into padded), at least the fourth
+    top = np.maximum(len(padded) - 1 - np.argmax((padded != 0)[::-1], axis=0), 3)
+    val = np.zeros(limbs.shape[1:], dtype=np.longdouble)
+    for j in range(4):  # the first three sums are exact (<= 60 bits); the last rounds
+        limb = np.take_along_axis(padded, (top - j)[None], axis=0)[0]
+        val = np.ldexp(val, _W) + limb.astype(np.longdouble)
+    return sign * np.ldexp(val, _W * (top - 6) - s)
 
 
 def exact_power(a: np.ndarray, k: int) -> np.ndarray:
     """``a^k`` exact, rounded once to ``np.longdouble`` (binary powering: about
-    2 log2(k) exact products of n^3 integer operations each).
+    2 log2(k) exact products).
 
     Parameters
     ----------
@@ -80,7 +137,7 @@ def exact_power(a: np.ndarray, k: int) -> np.ndarray:
     Returns
     -------
     ndarray of np.longdouble, shape (n, n)
-        The power, truncated to long double; besides that truncation, at most 2^-160 of
+        The power, rounded to long double; besides that rounding, at most 2^-160 of
         the largest entry per product times the cancellation of the products.
     """
     base = _to_fixed(a)
@@ -109,12 +166,15 @@ def exact_krylov(a: np.ndarray, b: np.ndarray, count: int) -> np.ndarray:
     Returns
     -------
     ndarray of np.longdouble, shape (count + 1, n, m)
-        The products (n^2 m integer operations each, not the n^3 of a power).
+        The products (n^2 m limb products each, not the n^3 of a power).
     """
     a_fixed, term = _to_fixed(a), _to_fixed(b)
-    out = np.empty((count + 1, *b.shape), dtype=np.longdouble)
-    out[0] = np.asarray(b, dtype=np.longdouble)
+    limbs = np.empty((_LIMBS, count + 1, *np.shape(b)), dtype=np.int64)
+    scales = np.empty((count + 1, 1, 1), dtype=np.int64)
+    limbs[:, 0], scales[0] = term
     for k in range(1, count + 1):
         term = _product(a_fixed, term)
-        out[k] = _to_longdouble(*term)
+        limbs[:, k], scales[k] = term
+    out = _to_longdouble(limbs, scales)
+    out[0] = np.asarray(b, dtype=np.longdouble)  # b itself: exact, not truncated
     return out
