@@ -11,6 +11,11 @@ regression's configured parameters and the closed-loop bench modes (as rule
 ``removal_tests``); identification: ``identify_methods`` (as rule ``identify``), with a
 held-out window of the record for validation; truth: the model stage's true modes of
 each pairing (``model_datasets``), never the identification's own output.
+
+Version ``twin`` is the record's random-only twin (:func:`gbpipe.simulate.random_only`:
+the same noise draws, every angle-locked excitation off) identified raw: what the
+identification reads from the same noisy record without any line to remove, i.e. the
+reference that separates the removal's error from the noise's.
 """
 
 from __future__ import annotations
@@ -23,7 +28,7 @@ import numpy as np
 from gbpipe.harmonics import envelope_modes, method_params, method_residuals, test_families
 from gbpipe.identify import identify_methods
 from gbpipe.model.stage import model_datasets
-from gbpipe.simulate import test
+from gbpipe.simulate import random_only, test
 
 #: Ramp from NOMINAL_RPM by STEP_RPM [rpm]: the 3x HSS order meets 62.2 Hz at 1244 rpm
 NOMINAL_RPM = 1200.0
@@ -85,7 +90,28 @@ def crossed_modes(cfg: dict) -> tuple[dict, dict]:
         removed["regression"] = (method_residuals(
             record, _signals(cfg), "regression", params, families,
             cfg["identify"]["tsa_keep_below"]), None)
-    ds = identify_methods(cfg, record, None, truth, ["pbsid"], removed)["pbsid"]
+    own = [v for v in cfg["identify"]["versions"] if v != "twin"]
+    sets = [identify_methods(_versions(cfg, own), record, None, truth, ["pbsid"],
+                             removed)["pbsid"]] if own else []
+    if "twin" in cfg["identify"]["versions"]:
+        twin = test(random_only(cfg), "prbs_speed", "tapered")
+        sets.append(identify_methods(_versions(cfg, ["raw"]), twin, None, truth, ["pbsid"],
+                                     {})["pbsid"].assign_coords(
+            model=lambda d: [str(m).replace("/raw", "/twin") for m in d.model.values]))
+    rows = {}
+    for ds in sets:
+        rows.update(_nearest_modes(ds, truth))
+    rpm = record.speed_gb1_hss.values * 60 / (2 * np.pi)
+    return rows, {"rpm": (float(rpm.min()), float(rpm.max())),
+                  "samples": record.sizes["time"]}
+
+
+def _versions(cfg: dict, versions: Sequence[str]) -> dict:
+    return {**cfg, "identify": {**cfg["identify"], "versions": list(versions)}}
+
+
+def _nearest_modes(ds, truth) -> dict:
+    # per (pairing, version): each true mode in BAND and the nearest identified one
     rows = {}
     for k, name in enumerate(ds.model.values):
         pairing, version = str(name).split("/")
@@ -104,6 +130,4 @@ def crossed_modes(cfg: dict) -> tuple[dict, dict]:
             else:
                 out.append((fj, zj, np.nan, np.nan, str(ds.status.values[k])))
         rows[(pairing, version)] = out
-    rpm = record.speed_gb1_hss.values * 60 / (2 * np.pi)
-    return rows, {"rpm": (float(rpm.min()), float(rpm.max())),
-                  "samples": record.sizes["time"]}
+    return rows
