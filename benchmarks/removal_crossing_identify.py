@@ -13,9 +13,13 @@ checks (the lowest in the band): how many seeds meet both targets, and the mean 
 standard deviation of the damping error. The removal's own error is the regression's
 against the twin's: both hold the same noise, only the twin never had a line.
 
+``--knot-spacing`` sets the regression's default knot spacing (the envelope's share of
+the random response, docs/removal.md).
+
 Run::
 
     OMP_NUM_THREADS=1 python benchmarks/removal_crossing_identify.py [--seeds 1 2]
+        [--knot-spacing 4]
 """
 
 from __future__ import annotations
@@ -40,8 +44,13 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--config", default=str(ROOT / "config" / "config.yaml"))
     ap.add_argument("--seeds", nargs="*", type=int, default=[1, 2])
+    ap.add_argument("--knot-spacing", type=float, default=None,
+                    help="removal.regression.knot_spacing.default [s] (the configured "
+                         "value when not given; the motor family keeps its own)")
     args = ap.parse_args()
     cfg = load(args.config)
+    if args.knot_spacing is not None:
+        cfg["removal"]["regression"]["knot_spacing"]["default"] = args.knot_spacing
     first = defaultdict(list)   # (pairing, version) -> (frequency, damping) errors [-]
     for seed in args.seeds:
         cpu = time.process_time()
