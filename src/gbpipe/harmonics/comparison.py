@@ -260,17 +260,21 @@ def removal_rows(datasets: Sequence[xr.Dataset]) -> list[dict[str, Any]]:
     return rows
 
 
-def method_residuals(record: xr.Dataset, names: Sequence[str], method: str,
-                     params: Mapping[str, Any], families: Families,
+def method_residuals(record: xr.Dataset | Sequence[xr.Dataset], names: Sequence[str],
+                     method: str, params: Mapping[str, Any], families: Families,
                      keep_below: float, angle_record: xr.Dataset | None = None,
-                     ) -> xr.Dataset:
+                     ) -> xr.Dataset | list[xr.Dataset]:
     """Measured-like signals of a record after one removal method (``removal_tests``).
 
     Parameters
     ----------
     record, names, keep_below
         As :func:`gbpipe.harmonics.split_residuals` (``keep_below`` times the lowest
-        removed order, as for TSA, so every version sees the same low part).
+        removed order, as for TSA, so every version sees the same low part). Several
+        records: a record and its harmonic part (:func:`harmonic_record`), removed in
+        one call (a :data:`gbpipe.harmonics.removal.MULTICHANNEL` method builds its
+        regressors and factor once for both: half the regression's work in
+        ``removal_tests``); one dataset per record, each as it would be alone.
     method : str
         A name of :data:`gbpipe.harmonics.removal.METHODS`.
     params : mapping
@@ -279,26 +283,30 @@ def method_residuals(record: xr.Dataset, names: Sequence[str], method: str,
         The families removed [HSS orders].
     angle_record : xarray.Dataset, optional
         The record whose measured speeds give the regression's second angle
-        (:func:`record_params`; default ``record``): the record itself when ``record`` is
-        its harmonic part (:func:`harmonic_record`), whose speeds are no speeds.
+        (:func:`record_params`; default ``record``, the first one): the record itself
+        when ``record`` is its harmonic part (:func:`harmonic_record`), whose speeds are
+        no speeds.
 
     Returns
     -------
-    xarray.Dataset
+    xarray.Dataset or list of xarray.Dataset
         One variable per name (time); attributes ``method``, ``families``, ``params``.
+        One per record when ``record`` is a sequence.
     """
+    first = record if isinstance(record, xr.Dataset) else record[0]
     # the piece split_residuals works on, so that the twist has the samples of x
-    run = record_params(params, longest_segment(record if angle_record is None
+    run = record_params(params, longest_segment(first if angle_record is None
                                                 else angle_record))
 
     def remove(x: np.ndarray, fs: float, pulses: np.ndarray, ppr: int) -> np.ndarray:
         return remove_harmonics(method, x, fs, pulses, families, ppr, **run)
 
     lowest = min(float(o) for orders in families.values() for o in orders)
-    ds = split_residuals(record, names, remove, lowest, keep_below,
-                         f"{method} removal of {', '.join(families)}")
-    ds.attrs.update(method=method, families=" ".join(families), params=repr(dict(params)))
-    return ds
+    out = split_residuals(record, names, remove, lowest, keep_below,
+                          f"{method} removal of {', '.join(families)}")
+    for ds in [out] if isinstance(out, xr.Dataset) else out:
+        ds.attrs.update(method=method, families=" ".join(families), params=repr(dict(params)))
+    return out
 
 
 def harmonic_record(record: xr.Dataset, random_only: xr.Dataset,
