@@ -151,3 +151,13 @@ def test_method_residuals_keep_the_low_part_and_remove_the_lines(sw):
     calm = inside & (sw["t"] > 20.0)
     assert 10 * np.log10(lines / np.mean((r - step)[calm] ** 2)) >= 40.0
     assert out.attrs["method"] == "regression"
+    # with a second record of the same angle (its harmonic part, as removal_tests pairs
+    # them) in one call: each record's signals are those of its own call, bit for bit
+    part = rec.assign(motor_torque_driver_measured=rec.motor_torque_driver_measured - step)
+    both = method_residuals([rec, part], ["motor_torque_driver"], "regression",
+                            {"knot_spacing": 1.0}, _families(sw), keep_below=0.5)
+    alone = method_residuals(part, ["motor_torque_driver"], "regression",
+                             {"knot_spacing": 1.0}, _families(sw), keep_below=0.5)
+    np.testing.assert_array_equal(both[0].motor_torque_driver.values, r)
+    np.testing.assert_array_equal(both[1].motor_torque_driver.values,
+                                  alone.motor_torque_driver.values)

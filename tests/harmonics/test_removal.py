@@ -75,3 +75,23 @@ def test_a_bad_channel_is_named():
     x[1234, 1] = np.nan
     with pytest.raises(DataError, match=r"x\[:, 1\].*first at index 1234"):
         remove_harmonics("regression", x, sw["fs"], sw["pulses"], FAMILIES)
+
+
+@pytest.mark.parametrize("name", ["vkf", "regression"])
+def test_records_at_once_equal_each_record_alone(name):
+    # a record and its harmonic part (one angle), two channels each: every record's
+    # residual is the one of its own call, bit for bit (removal_tests runs them at once);
+    # the regression with a modal envelope (its dense border) and a second angle
+    sw = sweep(noise=0.05, duration=8.0)
+    rng = np.random.default_rng(11)
+    x = np.column_stack([sw["x"], -3.0 * sw["x"] + 0.2 * rng.standard_normal(sw["x"].size)])
+    records = np.stack([x, np.column_stack([sw["h"], -3.0 * sw["h"]])])
+    params = ({"modes": [(62.0, 0.03)], "knot_spacing": {"shaft": 0.5, "default": 1.0},
+               "twist": 0.05 * np.sin(2 * np.pi * 1.3 * sw["t"])}
+              if name == "regression" else {})
+    r = remove_harmonics(name, records, sw["fs"], sw["pulses"], FAMILIES, **params)
+    assert r.shape == records.shape
+    for k in range(records.shape[0]):
+        alone = remove_harmonics(name, records[k], sw["fs"], sw["pulses"], FAMILIES, **params)
+        np.testing.assert_array_equal(r[k], alone)
+    assert np.any(r != records)  # something was removed

@@ -39,9 +39,11 @@ for n, ((test, profile), path, twin) in enumerate(
         for method in p.method_cfg:
             params = method_params(p.method_cfg, method, families,
                                    envelope_modes(bench, p.spectra))
-            ds = method_residuals(record, p.signals, method, params, families, p.keep_below)
-            leftover = method_residuals(harmonic, p.signals, method, params, families,
-                                        p.keep_below, angle_record=record)
+            # the record and its harmonic part in one call (the regression's regressors
+            # and factor built once for both); the harmonic part's speeds are no speeds:
+            # the record's give the second angle
+            ds, leftover = method_residuals([record, harmonic], p.signals, method, params,
+                                            families, p.keep_below)
             versions[method] = ds = record_separation(ds, harmonic, random, bench, families,
                                                       p.spectra, leftover)
             log.info("[%d/%d] %s: removed %s by %s from %d signals; worst leftover %.1f dB, "

@@ -35,7 +35,7 @@ from gbpipe.errors import ConfigError, DataError
 from gbpipe.harmonics.crossings import crossing_lines
 from gbpipe.harmonics.metrics import Families
 from gbpipe.harmonics.regression import family_groups
-from gbpipe.harmonics.removal import remove_harmonics
+from gbpipe.harmonics.removal import MULTICHANNEL, remove_harmonics
 from gbpipe.harmonics.separation import separation_metrics
 from gbpipe.harmonics.shaft_angles import shaft_twist
 from gbpipe.harmonics.stage import envelope_modes, split_residuals, watched_modes
@@ -142,7 +142,9 @@ def compare_method(sweep: xr.Dataset, random_only: xr.Dataset, bench: xr.Dataset
         :func:`gbpipe.harmonics.crossings.crossing_lines`), the residual
         (time) in the unit of the signal, and attributes ``method``, ``params``,
         ``families`` and ``signal``. The method's wall time [s] and traced peak memory
-        [MB] go to the log, not into the result: the same config gives the same file.
+        [MB] go to the log, not into the result: the same config gives the same file
+        (a :data:`gbpipe.harmonics.removal.MULTICHANNEL` method runs on the sweep and
+        its harmonic part in one call: both figures are then the pair's).
 
     Raises
     ------
@@ -164,13 +166,23 @@ def compare_method(sweep: xr.Dataset, random_only: xr.Dataset, bench: xr.Dataset
     log.info("%s on %d samples, families %s, params %s", method, x.size, list(families),
              dict(params))
     run = record_params(params, sweep)  # the second angle from the sweep's own speeds
-    start = time.perf_counter()
-    r = remove_harmonics(method, x, fs, pulses, families, ppr, **run)
-    runtime = time.perf_counter() - start
     h = x - n
-    # the second run (on the harmonic part) is traced: numpy allocates through tracemalloc
-    tracemalloc.start()
-    rh = remove_harmonics(method, h, fs, pulses, families, ppr, **run)
+    pair = method in MULTICHANNEL
+    start = time.perf_counter()
+    if pair:
+        # the sweep and its harmonic part in one call: the regressors and the factor built
+        # once for both, each residual as its own call gives it; time and traced peak
+        # memory (numpy allocates through tracemalloc) are then those of the pair
+        tracemalloc.start()
+        r, rh = remove_harmonics(method, np.stack([x, h])[:, :, None], fs, pulses, families,
+                                 ppr, **run)[:, :, 0]
+    else:
+        r = remove_harmonics(method, x, fs, pulses, families, ppr, **run)
+        # the second run (on the harmonic part) is traced
+        tracemalloc.start()
+    runtime = time.perf_counter() - start
+    if not pair:
+        rh = remove_harmonics(method, h, fs, pulses, families, ppr, **run)
     peak = tracemalloc.get_traced_memory()[1]
     tracemalloc.stop()
     ds = separation_metrics(r, n, h, fs, pulses, families, modes,
@@ -193,9 +205,10 @@ def compare_method(sweep: xr.Dataset, random_only: xr.Dataset, bench: xr.Dataset
     ds.attrs.update(method=method, params=repr(dict(params)), families=" ".join(families),
                     signal=name)
     mode_bands = ds.band != "elsewhere"
-    log.info("%s: %.2f s, peak %.0f MB (%.0f bytes per sample); worst-bin attenuation %s dB;"
+    log.info("%s: %.2f s, peak %.0f MB (%.0f bytes per sample%s); worst-bin attenuation %s dB;"
              " worst mode-band level change %.2f dB",
-             method, runtime, peak / 1e6, peak / x.size, ", ".join(
+             method, runtime, peak / 1e6, peak / x.size,
+             ": the sweep and its harmonic part in one call" if pair else "", ", ".join(
                  f"{f} {float(v):.1f}" for f, v in zip(
                      ds.family.values, ds.leftover_db.min("rpm").values, strict=True)),
              float(np.abs(ds.change_db.sel(band=mode_bands)).max()))
@@ -238,17 +251,21 @@ def removal_rows(datasets: Sequence[xr.Dataset]) -> list[dict[str, Any]]:
             c_order, c_mode = ((one[v].transpose("family", "band", "rpm").values
                                 if v in one else nan3)
                                for v in ("crossing_order", "crossing_mode"))
+            # the coordinates as numpy arrays once: an xarray index per row and column
+            # cost 0.3 ms, most of the table's time
+            bins = (None if test else
+                    np.column_stack([one[c].values for c in ("rpm", "rpm_lower", "rpm_upper")]))
+            band_lower, band_upper = one.band_lower.values, one.band_upper.values
             for k, fam in enumerate(one.family.values):
                 for i in range(n_bins):
-                    rpm = ([""] * 3 if test else
-                           [float(one.rpm[i]), float(one.rpm_lower[i]), float(one.rpm_upper[i])])
+                    rpm = [""] * 3 if test else [float(v) for v in bins[i]]
                     for b, band in enumerate(one.band.values):
                         rows.append({
                             "method": ds.attrs["method"], "record": record, "signal": sig,
                             "family": str(fam), "band": str(band), "rpm": rpm[0],
                             "rpm_lower": rpm[1], "rpm_upper": rpm[2],
-                            "band_lower": float(one.band_lower[b]),
-                            "band_upper": float(one.band_upper[b]),
+                            "band_lower": float(band_lower[b]),
+                            "band_upper": float(band_upper[b]),
                             "attenuation_db": float(att[k, i]),
                             "leftover_db": float(left[k, i]),
                             "distortion_db": float(dist[b, i]),
@@ -260,17 +277,21 @@ def removal_rows(datasets: Sequence[xr.Dataset]) -> list[dict[str, Any]]:
     return rows
 
 
-def method_residuals(record: xr.Dataset, names: Sequence[str], method: str,
-                     params: Mapping[str, Any], families: Families,
+def method_residuals(record: xr.Dataset | Sequence[xr.Dataset], names: Sequence[str],
+                     method: str, params: Mapping[str, Any], families: Families,
                      keep_below: float, angle_record: xr.Dataset | None = None,
-                     ) -> xr.Dataset:
+                     ) -> xr.Dataset | list[xr.Dataset]:
     """Measured-like signals of a record after one removal method (``removal_tests``).
 
     Parameters
     ----------
     record, names, keep_below
         As :func:`gbpipe.harmonics.split_residuals` (``keep_below`` times the lowest
-        removed order, as for TSA, so every version sees the same low part).
+        removed order, as for TSA, so every version sees the same low part). Several
+        records: a record and its harmonic part (:func:`harmonic_record`), removed in
+        one call (a :data:`gbpipe.harmonics.removal.MULTICHANNEL` method builds its
+        regressors and factor once for both: half the regression's work in
+        ``removal_tests``); one dataset per record, each as it would be alone.
     method : str
         A name of :data:`gbpipe.harmonics.removal.METHODS`.
     params : mapping
@@ -279,26 +300,30 @@ def method_residuals(record: xr.Dataset, names: Sequence[str], method: str,
         The families removed [HSS orders].
     angle_record : xarray.Dataset, optional
         The record whose measured speeds give the regression's second angle
-        (:func:`record_params`; default ``record``): the record itself when ``record`` is
-        its harmonic part (:func:`harmonic_record`), whose speeds are no speeds.
+        (:func:`record_params`; default ``record``, the first one): the record itself
+        when ``record`` is its harmonic part (:func:`harmonic_record`), whose speeds are
+        no speeds.
 
     Returns
     -------
-    xarray.Dataset
+    xarray.Dataset or list of xarray.Dataset
         One variable per name (time); attributes ``method``, ``families``, ``params``.
+        One per record when ``record`` is a sequence.
     """
+    first = record if isinstance(record, xr.Dataset) else record[0]
     # the piece split_residuals works on, so that the twist has the samples of x
-    run = record_params(params, longest_segment(record if angle_record is None
+    run = record_params(params, longest_segment(first if angle_record is None
                                                 else angle_record))
 
     def remove(x: np.ndarray, fs: float, pulses: np.ndarray, ppr: int) -> np.ndarray:
         return remove_harmonics(method, x, fs, pulses, families, ppr, **run)
 
     lowest = min(float(o) for orders in families.values() for o in orders)
-    ds = split_residuals(record, names, remove, lowest, keep_below,
-                         f"{method} removal of {', '.join(families)}")
-    ds.attrs.update(method=method, families=" ".join(families), params=repr(dict(params)))
-    return ds
+    out = split_residuals(record, names, remove, lowest, keep_below,
+                          f"{method} removal of {', '.join(families)}")
+    for ds in [out] if isinstance(out, xr.Dataset) else out:
+        ds.attrs.update(method=method, families=" ".join(families), params=repr(dict(params)))
+    return out
 
 
 def harmonic_record(record: xr.Dataset, random_only: xr.Dataset,

@@ -269,7 +269,9 @@ def residual_regression(x: np.ndarray, fs: float, pulse_times: np.ndarray,
         The residual: ``x`` minus the fitted harmonics (unit of ``x``), of the shape of
         ``x``. ``x`` may hold several channels of one record, shape ``(n, channels)``:
         each is fitted as it would be alone, but the regressors and the factor of the
-        normal equations are computed once for all.
+        normal equations are computed once for all. Several records of one angle (a
+        record and its harmonic part), shape ``(records, n, channels)``, share them too;
+        each record's products are those of a call of its own (the same numbers).
 
     Raises
     ------
@@ -290,11 +292,14 @@ def residual_regression(x: np.ndarray, fs: float, pulse_times: np.ndarray,
                                       twist_phase=twist_phase, block=block, t0=t0, method=method)
         return out
     xa = np.asarray(x, dtype=float)
-    multi = xa.ndim == 2
-    if multi:  # every channel checked; the first one carries the angle map's checks
-        for j in range(xa.shape[1]):
-            as_signal(xa[:, j], f"x[:, {j}]")
-    rec, fam, orders = removal_inputs(xa[:, 0] if multi else xa, fs, pulse_times, families,
+    if xa.ndim not in (1, 2, 3):
+        raise ValueError(f"x must be (n,), (n, channels) or (records, n, channels): {xa.shape}")
+    # (records, n, channels): every record's channels share the regressors and the factor
+    xs = xa.reshape((1,) * (3 - xa.ndim) + xa.shape) if xa.ndim > 1 else xa[None, :, None]
+    if xa.ndim > 1:  # every channel checked; the first one carries the angle map's checks
+        for k, j in np.ndindex(xs.shape[0], xs.shape[2]):
+            as_signal(xs[k, :, j], f"x[{k}, :, {j}]" if xa.ndim == 3 else f"x[:, {j}]")
+    rec, fam, orders = removal_inputs(xs[0, :, 0], fs, pulse_times, families,
                                       pulses_per_rev, t0, method)
     knot_spacing = as_positive(knot_spacing, "knot_spacing", "s")
     ridge = as_positive(ridge, "ridge", "relative units")
@@ -304,14 +309,13 @@ def residual_regression(x: np.ndarray, fs: float, pulse_times: np.ndarray,
     amp = AmplitudeBasis(float(times[0]), float(times[-1]), basis, knot_spacing, degree)
     # all channels share the regressors (one time base, one angle): the design, the normal
     # matrix and its factor are built once, and only the right-hand sides are per channel
-    xs = xa if multi else xa[:, None]
-    y = xs[rec.span]
+    y = xs[:, rec.span]
     # the lines: every order on the tachometer angle, and those of the families locked
     # to a second shaft again on its angle (theta + twist); per line its angle's index
     angles = [rec.theta]
     on_second = np.zeros(orders.size, dtype=bool)
     if twist is not None:
-        tw = checked_twist(twist, xs.shape[0])[rec.span]
+        tw = checked_twist(twist, xs.shape[1])[rec.span]
         angles.append(rec.theta + tw)
         # the phase change the envelope cannot follow: fitting such an order on the
         # tachometer angle alone leaves about that share of its line
@@ -337,14 +341,14 @@ def residual_regression(x: np.ndarray, fs: float, pulse_times: np.ndarray,
     n_unknown = amp.size * per_function
     width = amp.support * per_function  # columns touched by one block
     ab = np.zeros((width, n_unknown))
-    rhs = np.zeros((n_unknown, xs.shape[1]))
+    rhs = np.zeros((xs.shape[0], n_unknown, xs.shape[2]))
     # the modal carriers' coefficients are global (the mode's residue times the order's
     # excitation, which the carrier's ring-up pins down where it crosses the mode): a
     # dense border of the banded normal matrix
     n_border = 2 * n_pairs
     cross_nb = np.zeros((n_unknown, n_border))
     gram_b = np.zeros((n_border, n_border))
-    rhs_b = np.zeros((n_border, xs.shape[1]))
+    rhs_b = np.zeros((xs.shape[0], n_border, xs.shape[2]))
     cuts = _blocks(times, amp.breaks, block)
     # the lower triangle of a local normal matrix, entry (i, j) -> lower band storage
     # (i - j, first column + j), in one indexed addition per block
@@ -355,17 +359,19 @@ def residual_regression(x: np.ndarray, fs: float, pulse_times: np.ndarray,
         design, c0 = _local_design(amp, times[a:b], _phases(angles, lines, a, b))
         gram = design.T @ design
         ab[band_row, c0 + low_j] += gram[low_i, low_j]
-        rhs[c0:c0 + width] += design.T @ y[a:b]
+        for r in range(xs.shape[0]):  # each record's products as in a call of its own
+            rhs[r, c0:c0 + width] += design.T @ y[r, a:b]
         if n_border:
             border = _border_design(next(carriers))
             cross_nb[c0:c0 + width] += design.T @ border
             gram_b += border.T @ border
-            rhs_b += border.T @ y[a:b]
+            for r in range(xs.shape[0]):
+                rhs_b[r] += border.T @ y[r, a:b]
     ab[0] += ridge * float(np.mean(ab[0]))
     # finite by construction (checked signals and angles): no input scans
     factor = (cholesky_banded(ab, lower=True, check_finite=False), True)
-    coef = cho_solve_banded(factor, rhs, check_finite=False)
-    coef_b = np.zeros((n_border, xs.shape[1]))
+    coefs = [cho_solve_banded(factor, rhs[r], check_finite=False) for r in range(xs.shape[0])]
+    coefs_b = [np.zeros((n_border, xs.shape[2]))] * xs.shape[0]
     if n_border:  # block elimination: the border's Schur complement, then the band
         a_inv_c = cho_solve_banded(factor, cross_nb, check_finite=False)
         schur = gram_b - cross_nb.T @ a_inv_c
@@ -375,15 +381,20 @@ def residual_regression(x: np.ndarray, fs: float, pulse_times: np.ndarray,
         # is weighted against BORDER_RIDGE of its own power (-60 dB: what a carrier
         # adds below that is no resonance)
         schur[np.diag_indices(n_border)] += BORDER_RIDGE * np.diag(gram_b)
-        coef_b = np.linalg.solve(schur, rhs_b - cross_nb.T @ coef)
-        coef -= a_inv_c @ coef_b
-    coef[::per_function] = 0.0  # the slow mean is fitted, never subtracted
+        coefs_b = [np.linalg.solve(schur, rhs_b[r] - cross_nb.T @ coef)
+                   for r, coef in enumerate(coefs)]
+        for coef, coef_b in zip(coefs, coefs_b, strict=True):
+            coef -= a_inv_c @ coef_b
+    for coef in coefs:
+        coef[::per_function] = 0.0  # the slow mean is fitted, never subtracted
     out = xs.copy()
-    seg = out[rec.span]
+    seg = out[:, rec.span]
     carriers = _carriers(angles, fs, m, carriers_of, cuts)  # again, from the start
     for a, b in zip(cuts[:-1], cuts[1:], strict=True):
         design, c0 = _local_design(amp, times[a:b], _phases(angles, lines, a, b))
-        seg[a:b] -= design @ coef[c0:c0 + width]
-        if n_border:
-            seg[a:b] -= _border_design(next(carriers)) @ coef_b
-    return out if multi else out[:, 0]
+        border = _border_design(next(carriers)) if n_border else None
+        for r, (coef, coef_b) in enumerate(zip(coefs, coefs_b, strict=True)):
+            seg[r, a:b] -= design @ coef[c0:c0 + width]
+            if border is not None:
+                seg[r, a:b] -= border @ coef_b
+    return out.reshape(xa.shape)

@@ -92,8 +92,9 @@ METHODS: dict[str, RemovalMethod] = {
 }
 
 
-#: Methods that take the channels of one record at once, ``x`` of shape (n, channels):
-#: their work on the angle (regressors, factors) is shared by the channels.
+#: Methods that take the channels of one record at once, ``x`` of shape (n, channels), or
+#: of several records of one angle, (records, n, channels): their work on the angle
+#: (regressors, factors) is shared by the channels.
 MULTICHANNEL = frozenset({"regression"})
 
 
@@ -105,9 +106,10 @@ def remove_harmonics(name: str, x: np.ndarray, fs: float, pulse_times: np.ndarra
     ----------
     name : {"tsa", "vkf", "regression", "drs", "cepstrum"}
         Method (:data:`METHODS`).
-    x : array_like, shape (n,) or (n, channels)
+    x : array_like, shape (n,), (n, channels) or (records, n, channels)
         Record (any unit, e.g. N m), sample ``i`` at ``t0 + i / fs``; several channels
-        of one record (one pulse train) as columns. Not modified.
+        of one record (one pulse train) as columns; several records of one time base and
+        pulse train (a record and its harmonic part) along the first axis. Not modified.
     fs : float
         Sample rate [Hz].
     pulse_times : array_like
@@ -142,6 +144,9 @@ def remove_harmonics(name: str, x: np.ndarray, fs: float, pulse_times: np.ndarra
     if name not in METHODS:
         raise ValueError(f"removal method {name!r} is unknown: use one of {sorted(METHODS)}")
     xa = np.asarray(x, dtype=float)
+    if xa.ndim == 3 and name not in MULTICHANNEL:
+        return np.stack([remove_harmonics(name, r, fs, pulse_times, families,
+                                          pulses_per_rev, **params) for r in xa])
     if xa.ndim == 2 and name not in MULTICHANNEL:
         return np.column_stack([METHODS[name](xa[:, j], fs, pulse_times, families,
                                               pulses_per_rev, **params)

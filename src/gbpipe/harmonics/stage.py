@@ -273,23 +273,28 @@ def tsa_variant(sweep: xr.Dataset, bench: xr.Dataset, variant: str,
     return ds
 
 
-def split_residuals(record: xr.Dataset, names: Sequence[str],
+def split_residuals(record: xr.Dataset | Sequence[xr.Dataset], names: Sequence[str],
                     remove_fn: Callable[[np.ndarray, float, np.ndarray, int], np.ndarray],
                     lowest_order: float | None, keep_below: float,
-                    what: str) -> xr.Dataset:
+                    what: str) -> xr.Dataset | list[xr.Dataset]:
     """Measured-like signals of a record after a harmonic removal, above a low split.
 
     Parameters
     ----------
-    record : xarray.Dataset
+    record : xarray.Dataset or sequence of xarray.Dataset
         A test record (``<name>_measured``) or a measured record (``<name>``;
         :func:`gbpipe.io.measured_signal`), with ``pulse_time`` of the GB1 HSS tacho and
         attributes ``sample_rate``, ``pulses_per_rev``; its longest gap-free piece is used.
+        Or several records on the first one's time base and pulses (a record and its
+        harmonic part, :func:`gbpipe.harmonics.harmonic_record`): the channels of all of
+        them go to one ``remove_fn`` call, so that a method shares its work on the angle
+        among them; each channel's result is the one it would have alone.
     names : sequence of str
         Signal names (without ``_measured``).
     remove_fn : callable
         ``remove_fn(x, fs, pulse_times, pulses_per_rev) -> residual``, ``x`` and the
-        residual of shape ``(n, len(names))``: the signals' channels at once.
+        residual of shape ``(n, len(names))``: the signals' channels at once (several
+        records: ``(records, n, len(names))``).
     lowest_order : float or None
         Lowest removed order [HSS orders]; None: nothing is removed.
     keep_below : float
@@ -307,11 +312,17 @@ def split_residuals(record: xr.Dataset, names: Sequence[str],
 
     Returns
     -------
-    xarray.Dataset
+    xarray.Dataset or list of xarray.Dataset
         One variable per name (time) in the unit of the signal; attributes ``test``,
-        ``profile``, ``sample_rate``.
+        ``profile``, ``sample_rate``. One per record when ``record`` is a sequence.
     """
-    record = longest_segment(record)
+    several = not isinstance(record, xr.Dataset)
+    records = [longest_segment(r) for r in (record if several else [record])]
+    record = records[0]
+    if any(r.sizes["time"] != record.sizes["time"] for r in records[1:]):
+        raise DataError(f"records {[str(r.attrs.get('test', '?')) for r in records]}",
+                        f"have {[r.sizes['time'] for r in records]} samples: records removed "
+                        "together share one time base and pulse train (harmonic_record)")
     fs = float(record.attrs["sample_rate"])
     pulses = np.asarray(record["pulse_time"].values, dtype=float)
     ppr = int(record.attrs["pulses_per_rev"])
@@ -319,20 +330,28 @@ def split_residuals(record: xr.Dataset, names: Sequence[str],
     if lowest_order is not None and keep_below > 0:
         f_low = keep_below * lowest_order * mean_shaft_frequency(record)
         sos = signal.butter(6, f_low, fs=fs, output="sos")
-    ds = xr.Dataset(coords={"time": ("time", record.time.values,
-                                     {"units": "s", "long_name": "time from record start"})})
-    signals = [measured_signal(record, name) for name in names]
-    x = np.column_stack([np.asarray(m.values, dtype=float) for m in signals])
+    signals = [[measured_signal(r, name) for name in names] for r in records]
+    xs = [np.column_stack([np.asarray(m.values, dtype=float) for m in sig]) for sig in signals]
     if lowest_order is not None:
         # the channels in one call: a method may share its work on the angle among them
-        low = signal.sosfiltfilt(sos, x, axis=0) if sos is not None else np.zeros_like(x)
-        x = low + remove_fn(x - low, fs, pulses, ppr)
-    for j, (name, measured) in enumerate(zip(names, signals, strict=True)):
-        ds[name] = ("time", x[:, j], {"units": measured.attrs.get("units", "1"),
-                                      "long_name": f"{name}, measured-like after {what}"})
-    ds.attrs.update(test=str(record.attrs.get("test", "")),
-                    profile=str(record.attrs.get("profile", "")), sample_rate=fs)
-    return ds
+        # (several records: one array of them, each record's channels as its own call
+        # would have them)
+        low = [signal.sosfiltfilt(sos, x, axis=0) if sos is not None else np.zeros_like(x)
+               for x in xs]
+        high = [x - lo for x, lo in zip(xs, low, strict=True)]
+        removed = remove_fn(np.stack(high) if several else high[0], fs, pulses, ppr)
+        xs = [lo + r for lo, r in zip(low, removed if several else [removed], strict=True)]
+    out = []
+    for r, sig, x in zip(records, signals, xs, strict=True):
+        ds = xr.Dataset(coords={"time": ("time", r.time.values,
+                                         {"units": "s", "long_name": "time from record start"})})
+        for j, (name, measured) in enumerate(zip(names, sig, strict=True)):
+            ds[name] = ("time", x[:, j], {"units": measured.attrs.get("units", "1"),
+                                          "long_name": f"{name}, measured-like after {what}"})
+        ds.attrs.update(test=str(r.attrs.get("test", "")),
+                        profile=str(r.attrs.get("profile", "")), sample_rate=fs)
+        out.append(ds)
+    return out if several else out[0]
 
 
 def record_residuals(record: xr.Dataset, names: Sequence[str],

@@ -17,15 +17,22 @@ SHORT = {"motor_torque_driver": "Tdrv", "motor_torque_driven": "Tdrn",
          "torque_meter_driving": "Mdrv", "torque_meter_driven": "Mdrn"}
 
 
+#: The variables of an identify output that :func:`table_rows` reads.
+_ROW_VARIABLES = ("n_inputs", "n_outputs", "input_name", "output_name", "fit",
+                  "element_match_bandwidth", "mode_true", "mode_matched", "pairing", "version",
+                  "order", "match_bandwidth", "reference_band_max", "status", "stable",
+                  "reason", "frf_error", "assessable")
+
+
 def _short(names: Sequence[str]) -> str:
     return "+".join(SHORT.get(n, n) for n in names)
 
 
-def _within_pct(sel: xr.Dataset, ny: int, nu: int, tol: float) -> float:
+def _within_pct(sel: Mapping[str, np.ndarray], ny: int, nu: int, tol: float) -> float:
     # share of the frequencies the reference can assess where every element is within
     # tolerance (an incoherent estimate's frequencies are not counted)
-    err = np.abs(sel.frf_error.values[:, :ny, :nu])
-    band = sel.assessable.values > 0.5
+    err = np.abs(sel["frf_error"][:, :ny, :nu])
+    band = sel["assessable"] > 0.5
     if not band.any():
         return float("nan")
     return float(100.0 * np.mean(np.all(err[band] <= tol, axis=(1, 2))))
@@ -67,45 +74,47 @@ def table_rows(datasets: Sequence[xr.Dataset],
     designs = dict(designs or {})
     rows = []
     for ds in datasets:
+        # the variables a row reads, as numpy arrays once: an xarray selection per model
+        # (of every FRF of the file) and per field was most of the table's time
+        arrays = {v: ds[v].values for v in _ROW_VARIABLES if v in ds}
         for k in range(ds.sizes["model"]):
-            sel = ds.isel(model=k)
-            nu, ny = int(sel.n_inputs), int(sel.n_outputs)
-            ins = [str(x) for x in sel.input_name.values[:nu]]
-            outs = [str(x) for x in sel.output_name.values[:ny]]
-            fit = sel.fit.values[:ny]
-            ebw = sel.element_match_bandwidth.values[:ny, :nu]
-            mt = sel.mode_true.values
-            mm = sel.mode_matched.values
+            sel = {v: a[k] for v, a in arrays.items()}
+            nu, ny = int(sel["n_inputs"]), int(sel["n_outputs"])
+            ins = [str(x) for x in sel["input_name"][:nu]]
+            outs = [str(x) for x in sel["output_name"][:ny]]
+            fit = sel["fit"][:ny]
+            ebw = sel["element_match_bandwidth"][:ny, :nu]
+            mt = sel["mode_true"]
+            mm = sel["mode_matched"]
             ok = np.isfinite(mt)
             rel = np.abs(mm[ok] - mt[ok]) / mt[ok]
-            pred = _predicted(designs, ds, str(sel.pairing.values),
-                              str(sel.version.values))
+            pred = _predicted(designs, ds, str(sel["pairing"]), str(sel["version"]))
             rows.append({
                 "test": ds.attrs["test"], "profile": ds.attrs["profile"],
-                "method": ds.attrs["method"], "pairing": str(sel.pairing.values),
-                "version": str(sel.version.values), "inputs": _short(ins),
+                "method": ds.attrs["method"], "pairing": str(sel["pairing"]),
+                "version": str(sel["version"]), "inputs": _short(ins),
                 "outputs": _short(outs), "validation": ds.attrs["validation_test"],
-                "order": int(sel.order), "achieved_hz": float(sel.match_bandwidth),
+                "order": int(sel["order"]), "achieved_hz": float(sel["match_bandwidth"]),
                 "predicted_hz": pred,
                 "identifiable": "unknown" if np.isnan(pred) else ("yes" if pred > 0 else "no"),
                 # what the bandwidth is measured against, and up to where it could be
                 "reference": ds.attrs["reference"],
-                "reference_band_hz": float(sel.reference_band_max),
+                "reference_band_hz": float(sel["reference_band_max"]),
                 "element_bandwidth_hz": ";".join(
                     f"{SHORT.get(outs[o], outs[o])}<-{SHORT.get(ins[i], ins[i])}:"
                     f"{ebw[o, i]:.4g}" for o in range(ny) for i in range(nu)),
                 # a failed row claims no share either (its model, if any, is unusable)
-                "within_tol_pct": (float("nan") if str(sel.status.values) == "failed"
+                "within_tol_pct": (float("nan") if str(sel["status"]) == "failed"
                                    else _within_pct(sel, ny, nu, ds.attrs["tolerance_db"])),
                 "fit_pct": float(np.mean(fit)) if np.all(np.isfinite(fit)) else float("nan"),
                 "fit_min_pct": float(np.min(fit)) if np.all(np.isfinite(fit)) else float("nan"),
                 # the status's criterion (gbpipe.identify.status); unknown without a model
-                "stable": ("unknown" if not np.isfinite(float(sel.stable))
-                           else bool(float(sel.stable) > 0.5)),
+                "stable": ("unknown" if not np.isfinite(float(sel["stable"]))
+                           else bool(float(sel["stable"]) > 0.5)),
                 "modes_true": int(ok.sum()),
                 "modes_within_tol": int(np.sum(rel <= ds.attrs["mode_tolerance"])),
-                "status": str(sel.status.values),
-                "reason": str(sel.reason.values),
+                "status": str(sel["status"]),
+                "reason": str(sel["reason"]),
             })
     by_key = {(r["test"], r["profile"], r["method"], r["pairing"], r["version"]): r
               for r in rows}
