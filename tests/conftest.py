@@ -6,6 +6,7 @@ Imports sit in the fixtures: the thread settings below must precede numpy's impo
 from __future__ import annotations
 
 import os
+import threading
 from pathlib import Path
 
 import pytest
@@ -17,6 +18,10 @@ ROOT = Path(__file__).resolve().parents[1]
 CONFIG = ROOT / "config" / "config.yaml"
 CI_CONFIG = ROOT / "config" / "ci.yaml"
 EXAMPLE = ROOT / "config" / "examples" / "gearbox_1planetary_2parallel.yaml"
+#: Held around every apt-get of the session: the cluster tests' SLURM install runs in a
+#: background thread (tests/cluster/conftest.py) beside the tests, and two apt-get at once
+#: fail on dpkg's lock.
+APT_LOCK = threading.Lock()
 
 
 @pytest.fixture(scope="session")

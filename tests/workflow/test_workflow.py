@@ -26,6 +26,7 @@ from playwright.sync_api import sync_playwright
 
 import gbpipe
 from gbpipe import io
+from tests.conftest import APT_LOCK
 from tests.workflow.cf_check import cf_findings
 from tests.workflow.runs import ROOT, snakemake
 
@@ -132,9 +133,11 @@ def chromium() -> str:
     path = shutil.which("chromium")
     if path is None:
         env = {"DEBIAN_FRONTEND": "noninteractive", "PATH": "/usr/sbin:/usr/bin:/sbin:/bin"}
-        for cmd in (["apt-get", "update", "-qq"], ["apt-get", "install", "-y", "-qq", "chromium"]):
-            proc = subprocess.run(cmd, capture_output=True, text=True, env=env)
-            assert proc.returncode == 0, f"{' '.join(cmd)} failed: {proc.stderr[-2000:]}"
+        with APT_LOCK:   # the SLURM install may be running in the background
+            for cmd in (["apt-get", "update", "-qq"],
+                        ["apt-get", "install", "-y", "-qq", "chromium"]):
+                proc = subprocess.run(cmd, capture_output=True, text=True, env=env)
+                assert proc.returncode == 0, f"{' '.join(cmd)} failed: {proc.stderr[-2000:]}"
         path = shutil.which("chromium")
     assert path, "chromium is not installed and could not be installed with apt-get"
     return path
