@@ -26,7 +26,7 @@ import pytest
 from slurm_local import LocalSlurm, SlurmUnavailable, install
 from slurm_runs import MEMORY, RetryRun, SlurmRun
 
-from tests.conftest import APT_LOCK, STUDY_CONFIGS, study_targets
+from tests.conftest import APT_LOCK, STUDY_CONFIGS, session_tmp_path_factory, study_targets
 from tests.workflow.runs import copy_repo, snakemake_env
 
 HERE = Path(__file__).resolve().parent
@@ -89,9 +89,7 @@ def pytest_collection_finish(session):
     names = sorted({n for item in session.items
                     for mark in item.iter_markers("slurm_runs") for n in mark.args})
     if names and not session.config.option.collectonly:
-        # pytest's own tmp_path_factory (the fixture is not available to a hook): the
-        # runs' folders are kept, as every test's, for a look after a failure
-        _BACKGROUND.append(Background(names, session.config._tmp_path_factory))
+        _BACKGROUND.append(Background(names, session_tmp_path_factory(session)))
 
 
 def pytest_sessionfinish(session):

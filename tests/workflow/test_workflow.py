@@ -27,7 +27,7 @@ from playwright.sync_api import sync_playwright
 import gbpipe
 from gbpipe import io
 from tests.conftest import APT_LOCK
-from tests.workflow.cf_check import cf_findings
+from tests.workflow.cf_check import cf_findings_of_files
 from tests.workflow.runs import ROOT, snakemake
 
 
@@ -99,7 +99,9 @@ def test_every_output_file_is_0644(ci_run):
 
 
 def test_every_netcdf_output_is_cf_clean(ci_run):
-    findings = {str(p.relative_to(ci_run)): cf_findings(p) for p in _outputs(ci_run)}
+    paths = _outputs(ci_run)
+    findings = {str(p.relative_to(ci_run)): f
+                for p, f in zip(paths, cf_findings_of_files(paths), strict=True)}
     assert findings and not any(findings.values()), {k: v for k, v in findings.items() if v}
 
 
