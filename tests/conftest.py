@@ -137,9 +137,17 @@ class SharedRuns:
 _SHARED: list[SharedRuns] = []
 
 
+def tests_will_run(session: pytest.Session) -> bool:
+    """Whether the collected tests will run (not ``--collect-only``, no collection error
+    that ends the session): only then are runs started in the background."""
+    option = session.config.option
+    return not option.collectonly and (session.testsfailed == 0
+                                       or option.continue_on_collection_errors)
+
+
 def pytest_collection_finish(session):
     names = [n for n in BUILDERS if any(n in item.fixturenames for item in session.items)]
-    if names and not session.config.option.collectonly:
+    if names and tests_will_run(session):
         _SHARED.append(SharedRuns(names, session_tmp_path_factory(session)))
 
 

@@ -26,7 +26,13 @@ import pytest
 from slurm_local import LocalSlurm, SlurmUnavailable, install
 from slurm_runs import MEMORY, RetryRun, SlurmRun
 
-from tests.conftest import APT_LOCK, STUDY_CONFIGS, session_tmp_path_factory, study_targets
+from tests.conftest import (
+    APT_LOCK,
+    STUDY_CONFIGS,
+    session_tmp_path_factory,
+    study_targets,
+    tests_will_run,
+)
 from tests.workflow.runs import copy_repo, snakemake_env
 
 HERE = Path(__file__).resolve().parent
@@ -88,7 +94,7 @@ def pytest_collection_modifyitems(session, config, items):
 def pytest_collection_finish(session):
     names = sorted({n for item in session.items
                     for mark in item.iter_markers("slurm_runs") for n in mark.args})
-    if names and not session.config.option.collectonly:
+    if names and tests_will_run(session):
         _BACKGROUND.append(Background(names, session_tmp_path_factory(session)))
 
 
