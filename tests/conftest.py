@@ -137,6 +137,19 @@ class SharedRuns:
 _SHARED: list[SharedRuns] = []
 
 
+def _order(item: pytest.Item) -> tuple[bool, bool]:
+    # the cluster tests last (their SLURM runs, started in the background by
+    # tests/cluster/conftest.py, go on beside every other test), and before them, the tests
+    # that read a shared run after those that do not (its build goes on beside them)
+    cluster = Path(item.path).resolve().is_relative_to(ROOT / "tests" / "cluster")
+    return cluster, any(n in item.fixturenames for n in BUILDERS)
+
+
+@pytest.hookimpl(trylast=True)   # after the deselection (-k, -m) of the other plugins
+def pytest_collection_modifyitems(session, config, items):
+    items.sort(key=_order)   # stable: every other order is kept
+
+
 def tests_will_run(session: pytest.Session) -> bool:
     """Whether the collected tests will run (not ``--collect-only``, no collection error
     that ends the session): only then are runs started in the background."""

@@ -12,15 +12,14 @@ collection ends, a background thread installs and starts the cluster and then st
 every run that the selected tests name, at once: the cluster runs their jobs side by side
 (most of a run's time is its Snakemake's start-ups and waits between status queries, not
 its jobs' work), while the rest of the suite goes on, which the cluster tests therefore
-follow (moved to the end of the session). The ``slurm`` and ``slurm_runs`` fixtures wait
-for that thread (its end, never a time), and each test waits for its own runs only. The
-runs and the cluster are stopped when the session ends.
+follow (tests/conftest.py moves them to the end of the session). The ``slurm`` and
+``slurm_runs`` fixtures wait for that thread (its end, never a time), and each test waits
+for its own runs only. The runs and the cluster are stopped when the session ends.
 """
 
 from __future__ import annotations
 
 import threading
-from pathlib import Path
 
 import pytest
 from slurm_local import LocalSlurm, SlurmUnavailable, install
@@ -35,7 +34,6 @@ from tests.conftest import (
 )
 from tests.workflow.runs import copy_repo, snakemake_env
 
-HERE = Path(__file__).resolve().parent
 #: Seconds of the install and of each start-up step, for the session's summary.
 TIMINGS: dict[str, float] = {}
 
@@ -78,17 +76,6 @@ class Background:
 
 #: The session's background start, if a selected test reads a SLURM run.
 _BACKGROUND: list[Background] = []
-
-
-def _in_cluster_tests(item: pytest.Item) -> bool:
-    return Path(item.path).resolve().is_relative_to(HERE)
-
-
-@pytest.hookimpl(trylast=True)   # after the deselection (-k, -m) of the other plugins
-def pytest_collection_modifyitems(session, config, items):
-    # the cluster tests last (a stable sort keeps every other order): their runs go on
-    # during the rest of the suite, and the local runs they compare with are built by then
-    items.sort(key=_in_cluster_tests)
 
 
 def pytest_collection_finish(session):
