@@ -1,8 +1,8 @@
 """Snakemake runs on the local SLURM of tests/cluster, and their jobs as sacct has them.
 
 The runs of the cluster tests share the one-node cluster at the same time (`SlurmRun`
-starts one in the background; the ``slurm_runs`` fixture of conftest.py starts them all at
-once): their jobs are told apart by the working directory SLURM accounted for each job
+starts one in the background; conftest.py starts them all at once, when the session is
+collected): their jobs are told apart by the working directory SLURM accounted for each job
 (the executor submits every job with ``-D <the run's directory>``), never by job ids or
 the order of submission.
 """

@@ -10,8 +10,8 @@ rule, on its first attempt, having asked for its rule's declared memory
 
 The study of config/examples/study.yaml (four gearboxes and benches, one results folder
 each) runs the same way and must equal its local run (``study_run``). Both SLURM runs (and
-those of test_slurm_retries.py) are started together by the ``slurm_runs`` fixture
-(conftest.py); their jobs are told apart by their working directory.
+those of test_slurm_retries.py) are started together in the background when the session
+is collected (conftest.py); their jobs are told apart by their working directory.
 """
 
 from __future__ import annotations

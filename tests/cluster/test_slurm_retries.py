@@ -9,7 +9,7 @@ workflow's own resource functions (``Declared`` of ``workflow/lib/jobresources.p
 SLURM profile. Without retries, the run fails and neither output exists (Snakemake removed
 the partial files); with ``retries: 1``, each rule's second SLURM job asks for 2000 MB and
 completes, and each output holds that attempt's content only. Both runs are started
-together with the other SLURM runs (``slurm_runs``, conftest.py; `RetryRun` of
+together with the other SLURM runs (in the background, conftest.py; `RetryRun` of
 slurm_runs.py holds the watcher); their jobs are told apart by their working directory.
 """
 

@@ -4,7 +4,10 @@ Usage: ``python snakemake_batch.py CASES.json RESULTS.json``. CASES.json lists
 ``{"dir": ..., "argv": [...]}``; each case runs Snakemake's own command-line entry point
 (``snakemake.cli.main``, what the ``snakemake`` command calls) in a forked child whose
 working directory is ``dir`` and whose stdout/stderr go to ``dir/stdout``/``dir/stderr``.
-Snakemake and gbpipe are imported once, before forking, which saves ~3 s per case.
+Snakemake and gbpipe are imported once, before forking, which saves ~3 s per case; so
+are what every case would build again before its config is refused: Snakemake's plugin
+registries (built with its argument parser) and gbpipe's parsed config schema (the
+children inherit both, filled, from the parent).
 RESULTS.json gets the exit status of each case, in order.
 """
 
@@ -16,7 +19,7 @@ import sys
 
 import snakemake.cli
 
-import gbpipe.config  # noqa: F401  (imported once here: the Snakefile imports it)
+from gbpipe.config import schema  # gbpipe.config imported once here: the Snakefile does
 
 
 def _child(case: dict) -> None:
@@ -39,6 +42,9 @@ def _child(case: dict) -> None:
 def main(cases_path: str, results_path: str, jobs: int = 2) -> None:
     with open(cases_path) as fh:
         cases = json.load(fh)
+    # singletons and caches that every child would fill again: filled once, here
+    snakemake.cli.get_argument_parser()
+    schema()
     codes: dict[int, int] = {}
     running: dict[int, int] = {}
     for i, case in enumerate(cases):

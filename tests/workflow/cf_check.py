@@ -5,6 +5,10 @@ Reusable by any test (e.g. one over every file of a workflow run)::
     from tests.workflow.cf_check import cf_findings
     assert cf_findings(path) == []
 
+`cf_findings_of_files` checks many files in worker processes (the checker's cost grows
+with a file's variables, ~4 s of CPU for an identification file, and a workflow run has
+dozens): the second core does half the files.
+
 Every finding counts, whatever its priority: high ("errors"), medium ("warnings") and low
 ("info"), which the command line's default ``--criteria normal`` would hide. An exception
 inside one of the checker's checks is a finding too: the checker then could not verify
@@ -13,8 +17,11 @@ that part of the file (it happens, e.g., on string-valued coordinate variables).
 
 from __future__ import annotations
 
+import multiprocessing
 import os
 import warnings
+from collections.abc import Sequence
+from concurrent.futures import ProcessPoolExecutor
 from functools import lru_cache
 
 CHECKER = "cf:1.11"
@@ -72,3 +79,15 @@ def cf_findings(path: str | os.PathLike) -> list[str]:
     for check, (exc, _tb) in sorted(errors.items()):
         findings.append(f"[exception] {check}: {type(exc).__name__}: {exc}")
     return sorted(set(findings))
+
+
+def cf_findings_of_files(paths: Sequence[str | os.PathLike], workers: int = 2) -> list[list[str]]:
+    """`cf_findings` of each file of ``paths``, in order, from ``workers`` processes.
+
+    The workers are spawned (a fork of a test process whose background threads hold locks
+    could hang) and each loads the checker once.
+    """
+    workers = max(1, min(workers, len(os.sched_getaffinity(0)), len(paths)))
+    context = multiprocessing.get_context("spawn")
+    with ProcessPoolExecutor(max_workers=workers, mp_context=context) as pool:
+        return list(pool.map(cf_findings, [os.fspath(p) for p in paths]))

@@ -20,6 +20,9 @@ ROOT = Path(__file__).resolve().parents[2]
 
 SNAKEMAKE = [sys.executable, "-m", "snakemake", "--cores", "2", "--configfile",
              "config/ci.yaml"]
+#: The usual umask of a run (set by subprocess itself: a ``preexec_fn`` is unsafe while
+#: other threads run, as the background builds of tests/conftest.py do).
+UMASK = 0o022
 #: Not part of a fresh clone: results, Snakemake's state, caches.
 _SKIP = {"results", ".snakemake", ".git", "__pycache__", ".pytest_cache", ".ruff_cache"}
 
@@ -52,14 +55,10 @@ def snakemake_env(work: Path) -> dict[str, str]:
     return env
 
 
-def _umask_022() -> None:
-    os.umask(0o022)
-
-
 def snakemake(work: Path, *args: str, check: bool = True) -> subprocess.CompletedProcess:
     """Run Snakemake (CI config, 2 cores) in ``work``; fail with its log tail if it fails."""
     proc = subprocess.run([*SNAKEMAKE, *args], cwd=work, capture_output=True, text=True,
-                          env=snakemake_env(work), preexec_fn=_umask_022)
+                          env=snakemake_env(work), umask=UMASK)
     if check and proc.returncode != 0:
         raise AssertionError(f"snakemake {' '.join(args)} failed:\n{proc.stderr[-6000:]}")
     return proc
@@ -70,7 +69,7 @@ def start_snakemake(work: Path, log: Path) -> subprocess.Popen:
     with open(log, "w") as fh:
         return subprocess.Popen([*SNAKEMAKE], cwd=work, stdout=fh, stderr=subprocess.STDOUT,
                                 env=snakemake_env(work), start_new_session=True,
-                                preexec_fn=_umask_022)
+                                umask=UMASK)
 
 
 #: The bench-record example on top of the CI config (config/examples/measured.yaml).

@@ -26,7 +26,8 @@ from playwright.sync_api import sync_playwright
 
 import gbpipe
 from gbpipe import io
-from tests.workflow.cf_check import cf_findings
+from tests.conftest import APT_LOCK
+from tests.workflow.cf_check import cf_findings_of_files
 from tests.workflow.runs import ROOT, snakemake
 
 
@@ -98,7 +99,9 @@ def test_every_output_file_is_0644(ci_run):
 
 
 def test_every_netcdf_output_is_cf_clean(ci_run):
-    findings = {str(p.relative_to(ci_run)): cf_findings(p) for p in _outputs(ci_run)}
+    paths = _outputs(ci_run)
+    findings = {str(p.relative_to(ci_run)): f
+                for p, f in zip(paths, cf_findings_of_files(paths), strict=True)}
     assert findings and not any(findings.values()), {k: v for k, v in findings.items() if v}
 
 
@@ -132,9 +135,11 @@ def chromium() -> str:
     path = shutil.which("chromium")
     if path is None:
         env = {"DEBIAN_FRONTEND": "noninteractive", "PATH": "/usr/sbin:/usr/bin:/sbin:/bin"}
-        for cmd in (["apt-get", "update", "-qq"], ["apt-get", "install", "-y", "-qq", "chromium"]):
-            proc = subprocess.run(cmd, capture_output=True, text=True, env=env)
-            assert proc.returncode == 0, f"{' '.join(cmd)} failed: {proc.stderr[-2000:]}"
+        with APT_LOCK:   # the SLURM install may be running in the background
+            for cmd in (["apt-get", "update", "-qq"],
+                        ["apt-get", "install", "-y", "-qq", "chromium"]):
+                proc = subprocess.run(cmd, capture_output=True, text=True, env=env)
+                assert proc.returncode == 0, f"{' '.join(cmd)} failed: {proc.stderr[-2000:]}"
         path = shutil.which("chromium")
     assert path, "chromium is not installed and could not be installed with apt-get"
     return path
