@@ -93,8 +93,15 @@ BUILDERS = {"ci_run": _build_ci_run, "measured_run": _build_measured_run,
 
 def session_tmp_path_factory(session: pytest.Session) -> pytest.TempPathFactory:
     """pytest's own ``tmp_path_factory`` (the fixture is not available to a hook): folders
-    made from a hook are kept like every test's, for a look after a failure."""
-    return session.config._tmp_path_factory
+    made from a hook are kept like every test's, for a look after a failure.
+
+    Its base folder is made here, in the main thread, before any background thread uses
+    the factory: pytest makes it lazily and without a lock, so a thread and a test asking
+    for it at once make two (``pytest-N`` and ``pytest-N+1``), and ``mktemp`` then fails
+    with "is not a normalized and relative path" (seen in CI)."""
+    factory = session.config._tmp_path_factory
+    factory.getbasetemp()
+    return factory
 
 
 class SharedRuns:
