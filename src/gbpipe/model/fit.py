@@ -36,7 +36,7 @@ from gbpipe.model.fit_modes import ModalData, ModalResiduals, ModeTable
 from gbpipe.model.fit_residuals import DELAY_UNIT, FrfResiduals, correlation_factor
 from gbpipe.model.fit_search import SEARCHES, evolution_run, local_run, needs_evolution, start_runs
 from gbpipe.model.frf_data import FrfData
-from gbpipe.model.goodness import DEFAULT_ALPHA, POOR, Goodness, chi_square_test
+from gbpipe.model.goodness import DEFAULT_ALPHA, POOR, UNTESTED, Goodness, chi_square_test
 from gbpipe.model.identifiability import Z95, Identifiability, analyse, describe_direction
 from gbpipe.model.keypath import overlay
 from gbpipe.model.parameters import DEFAULT_FACTOR, FreeParameters
@@ -47,15 +47,17 @@ __all__ = ["FitResult", "fit_parameters", "correlation_factor", "DELAY_NAME",
 #: Name of the delay unknown in the identifiability analysis; its unit in ``θ`` is 1 ms.
 DELAY_NAME = "delay"
 
-IDENTIFIED, POOR_FIT, CONDITIONAL, UNIDENTIFIABLE = ("identified", "poor", "conditional",
-                                                     "unidentifiable")
+#: Parameter statuses: determined and the fit passed its chi-square test; determined but
+#: the fit is poor; determined but the fit could not be tested (no sigma: ``fit.weight:
+#: uniform``, or no degrees of freedom left), so nothing says the model fits within the
+#: data's errors; fitted with an undetermined partner held, or known only to worse than
+#: ``accuracy``; held at prior.
+IDENTIFIED, POOR_FIT, UNTESTED_FIT, CONDITIONAL, UNIDENTIFIABLE = (
+    "identified", "poor", "untested", "conditional", "unidentifiable")
 #: Default relative half-width of a 95 % interval that still counts as identified: the
 #: issue's "each identifiable parameter within 5 %" (a parameter known only to ±20 % is a
 #: combination the data leave open, not a result). ``fit.accuracy`` sets it.
 DEFAULT_ACCURACY = 0.05
-#: Parameter statuses: determined and the fit passed its test (or had no sigma to test);
-#: determined but the fit is poor; fitted with an undetermined partner held, or known only
-#: to worse than ``accuracy``; held at prior.
 
 
 @dataclass
@@ -142,8 +144,9 @@ class FitResult:
 
     @property
     def determined(self) -> np.ndarray:
-        """Per parameter: determined by the data (``identified`` or ``poor``)."""
-        return np.array([s in (IDENTIFIED, POOR_FIT) for s in self.status])
+        """Per parameter: determined by the data (``identified``, ``poor`` or
+        ``untested``)."""
+        return np.array([s in (IDENTIFIED, POOR_FIT, UNTESTED_FIT) for s in self.status])
 
     def overlay(self) -> dict[str, Any]:
         """The fitted free parameters as a config overlay (nested keys, whole lists)."""
@@ -339,14 +342,15 @@ def fit_parameters(cfg: Mapping[str, Any], data: Sequence[FrfData] | ModalData,
         flagged[active] |= final.flagged
 
     goodness = _goodness(problem, theta, int(active.sum()), alpha)
-    determined_status = POOR_FIT if goodness.status == POOR else IDENTIFIED
+    determined_status = {POOR: POOR_FIT, UNTESTED: UNTESTED_FIT}.get(goodness.status,
+                                                                      IDENTIFIED)
     # determined, but weakly: a direction known only to worse than ±accuracy (95 %)
     # (the structural ones are held above; these keep their fitted values: the data do
     # move them off the prior, only not to the accuracy asked)
     # (a poor fit identifies nothing anyway: its determined parameters stay ``poor``, their
     # Birge-widened intervals are no measure of what the data would determine)
     combinations = list(first.combinations)
-    if active.any() and determined_status == IDENTIFIED:
+    if active.any() and determined_status != POOR_FIT:
         half = float(np.log1p(accuracy))
         weak = analyse(problem.jacobian(theta)[:, active],
                        [names[i] for i in np.nonzero(active)[0]], scale, rtol, half / Z95,

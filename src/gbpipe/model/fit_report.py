@@ -93,6 +93,7 @@ def result_variables(result: FitResult, cfg: Mapping[str, Any]
                                "upper end of the 95 % interval"),
         "status": cf_var(pdim, np.array(result.status), "1",
                        "identified, poor (determined, fit failed its chi-square test), "
+                       "untested (determined, no sigma to test the fit against), "
                        "conditional (partner held) or unidentifiable"),
         "correlation": cf_var(("parameter", "parameter_col"), result.correlation, "1",
                             "correlation of the determined log-parameters"),

@@ -302,8 +302,9 @@ def fit_record(cfg: Mapping[str, Any], prior: Mapping[str, Any], *,
     log.info("cost %.4g at the prior, %.4g fitted, %d model evaluations (%s)\n%s",
              res.cost_prior, res.cost, res.n_evaluations, res.search, res.table())
     g = res.goodness
-    (log.warning if g.status == "poor" else log.info)("goodness of fit: %s: %s", g.status,
-                                                      g.reason)
+    # a poor fit and one nothing could test both leave their parameters unvouched for
+    (log.info if g.status == "passed" else log.warning)("goodness of fit: %s: %s",
+                                                        g.status, g.reason)
     for name, share, count in zip(g.groups, g.group_share, g.group_count_share,
                                   strict=True):
         log.info("  %s: %.1f %% of chi2 (%.1f %% of the residuals)", name, 100 * share,
