@@ -237,9 +237,16 @@ def score_sweep(cfg: dict, methods: list[str]) -> dict:
         change = np.abs(ds.change_db.values)
         cross = crossing_bins(ds, families, fz)
         i = np.unravel_index(np.nanargmax(np.where(cross, change, -1.0)), change.shape)
+        # the same away from the sweep's ends: crossings in the first and last rpm bins
+        # are where the envelope (and the VKF's smoother) has support on one side only
+        inside = cross.copy()
+        inside[:, [0, -1]] = False
         out[name] = {"cross": float(change[i]) if cross.any() else np.nan,
+                     "cross_inside": (float(np.max(change[inside])) if inside.any()
+                                      else np.nan),
                      "where": f"{ds.band.values[i[0]]} {float(ds.rpm[i[1]]):.0f} rpm",
                      "change": float(np.nanmax(change[:-1])),
+                     "change_inside": float(np.nanmax(change[:-1, 1:-1])),
                      "leftover": {str(f): float(v) for f, v in zip(
                          ds.family.values, ds.leftover_db.min("rpm").values, strict=True)},
                      "cpu": dt[1], "wall": dt[0], "peak": peak, **angles}
@@ -259,32 +266,37 @@ def tacho_gearbox_only(cfg: dict) -> dict:
     return {**cfg, "excitation": {**cfg["excitation"], "gearboxes": ["gb1"]}}
 
 
-def crossings(cfg: dict, methods: list[str]) -> None:
+def crossings(cfg: dict, methods: list[str], rates: tuple[float, ...] = CROSSING_RATES,
+              seeds: tuple[int, ...] = CROSSING_SEEDS) -> None:
     """The crossing sweeps: every method on each, then the worst over all of them."""
     worst: dict[str, dict] = {}
     per_rate: dict[tuple[str, float], float] = {}  # (method, rate) -> worst crossing [dB]
-    print(f"{'sweep':>24} {'method':>10} {'cross [dB]':>10} {'any [dB]':>8} {'wall [s]':>8} "
+    print(f"{'sweep':>24} {'method':>10} {'cross [dB]':>10} {'inside':>6} {'any [dB]':>8} "
+          f"{'inside':>6} {'wall [s]':>8} "
           f"{'CPU [s]':>7} {'peak [MB]':>9}  worst crossing; worst-bin leftover per family "
           "[dB]")
-    for (r0, r1), rate, seed in itertools.product(CROSSING_RANGES, CROSSING_RATES,
-                                                  CROSSING_SEEDS):
+    for (r0, r1), rate, seed in itertools.product(CROSSING_RANGES, rates, seeds):
         c = {**cfg, "seed": seed,
              "sweep": {**cfg["sweep"], "rpm_start": r0, "rpm_end": r1,
                        "duration": (r1 - r0) / rate}}
         label = f"{r0:.0f}-{r1:.0f} @{rate:g}rpm/s s{seed}"
         for name, v in score_sweep(c, methods).items():
-            print(f"{label:>24} {name:>10} {v['cross']:10.2f} {v['change']:8.2f} "
+            print(f"{label:>24} {name:>10} {v['cross']:10.2f} {v['cross_inside']:6.2f} "
+                  f"{v['change']:8.2f} {v['change_inside']:6.2f} "
                   f"{v['wall']:8.1f} {v['cpu']:7.1f} {v['peak'] / 1e6:9.0f}  {v['where']}; "
                   + ", ".join(
                       f"{f} {d:.1f}" for f, d in v["leftover"].items())
                   + f"; HSS twist change {v['twist'] * 1e3:.1f} mrad; tachometer angle "
                   f"error {v['angle_kink'] * 1e6:.0f} urad rms at the ramp's start, "
                   f"{v['angle_rest'] * 1e6:.0f} elsewhere", flush=True)
-            w = worst.setdefault(name, {"cross": 0.0, "change": 0.0, "wall": 0.0,
+            w = worst.setdefault(name, {"cross": 0.0, "inside": 0.0, "change": 0.0,
+                                        "change_inside": 0.0, "wall": 0.0,
                                         "cpu": 0.0, "peak": 0.0, "leftover": {}})
             w["cross"] = max(w["cross"], v["cross"])
+            w["inside"] = max(w["inside"], v["cross_inside"])
             per_rate[name, rate] = max(per_rate.get((name, rate), 0.0), v["cross"])
             w["change"] = max(w["change"], v["change"])
+            w["change_inside"] = max(w["change_inside"], v["change_inside"])
             w["wall"] += v["wall"]
             w["cpu"] += v["cpu"]
             w["peak"] = max(w["peak"], v["peak"])
@@ -292,9 +304,10 @@ def crossings(cfg: dict, methods: list[str]) -> None:
                 w["leftover"][f] = min(w["leftover"].get(f, np.inf), d)
     print("over all crossing sweeps (worst bin of every sweep; wall and CPU summed):")
     for name, w in worst.items():
-        print(f"{name:>10} worst crossing |change| {w['cross']:6.2f} dB, worst mode-band "
-              f"|change| {w['change']:6.2f} dB, wall {w['wall']:6.1f} s, CPU "
-              f"{w['cpu']:6.1f} s, peak "
+        print(f"{name:>10} worst crossing |change| {w['cross']:6.2f} dB (away from the "
+              f"sweep's end bins {w['inside']:5.2f} dB), worst mode-band "
+              f"|change| {w['change']:6.2f} dB ({w['change_inside']:5.2f} dB), wall "
+              f"{w['wall']:6.1f} s, CPU {w['cpu']:6.1f} s, peak "
               f"{w['peak'] / 1e6:5.0f} MB; worst leftover " + ", ".join(
                   f"{f} {d:.1f}" for f, d in w["leftover"].items()))
     fams = next(iter(worst.values()))["leftover"]
@@ -304,7 +317,7 @@ def crossings(cfg: dict, methods: list[str]) -> None:
     # the limit of the regression's model at an isolated crossing, in the bins of these
     # sweeps, beside each method's worst crossing bin
     print_limits(cfg, [(r1 - r0) / cfg["spectra"]["metric_rpm_bins"]
-                       for r0, r1 in CROSSING_RANGES], CROSSING_RATES, per_rate)
+                       for r0, r1 in CROSSING_RANGES], rates, per_rate)
 
 
 def main() -> None:
@@ -314,6 +327,10 @@ def main() -> None:
     ap.add_argument("--peer", default=None, help="directory holding rota-order (GPL)")
     ap.add_argument("--crossings", action="store_true",
                     help="the crossing sweeps (CROSSING_RANGES x RATES x SEEDS) instead")
+    ap.add_argument("--rates", type=float, nargs="+", default=list(CROSSING_RATES),
+                    help="crossing sweeps: sweep rates [rpm/s]")
+    ap.add_argument("--seeds", type=int, nargs="+", default=list(CROSSING_SEEDS),
+                    help="crossing sweeps: seeds")
     ap.add_argument("--gearboxes", choices=["both", "gb1"], default="both",
                     help="crossing sweeps: gb1 = excitation of the tachometer's gearbox "
                          "alone")
@@ -328,7 +345,7 @@ def main() -> None:
         cfg["removal"]["regression"]["second_angle"] = []
     if args.crossings:
         crossings(tacho_gearbox_only(cfg) if args.gearboxes == "gb1" else cfg,
-                  args.methods)
+                  args.methods, tuple(args.rates), tuple(args.seeds))
         return
     spec = cfg["spectra"]
     families = excitation_families(cfg)
