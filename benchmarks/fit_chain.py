@@ -28,8 +28,11 @@ resolution bias at the modes), ``--oversample 1`` (the record sampled straight f
 held-excitation simulation: the excitation's images in the motor torque bias every
 output/torque ratio near a mode, up to 7 %).
 
+``--overlay benchmarks/chains/shaftline_long.yaml`` runs the same on the shaft line drawn
+as 22 disks with three gear stages (its shafts in segments, a third stage).
+
 Usage: ``OMP_NUM_THREADS=1 python benchmarks/fit_chain.py [--seeds 20] [--duration 30]
-[--h1] [--no-window] [--oversample 16]``.
+[--h1] [--no-window] [--oversample 16] [--overlay FILE ...]``.
 """
 
 from __future__ import annotations
@@ -69,8 +72,15 @@ def main() -> None:
                     help="simulation rate over the record's (1: no anti-alias filter)")
     ap.add_argument("--f-modes", type=float, default=350.0,
                     help="modal table up to [Hz] (default: the identification band's top)")
+    ap.add_argument("--overlay", type=Path, nargs="*", default=[],
+                    help="config overlays on top of shaftline.yaml, e.g. "
+                         "benchmarks/chains/shaftline_long.yaml (22 disks, 3 gears)")
     args = ap.parse_args()
-    cfg = load(ROOT / "config" / "config.yaml", ROOT / "config" / "examples" / "shaftline.yaml")
+    cfg = load(ROOT / "config" / "config.yaml", ROOT / "config" / "examples" / "shaftline.yaml",
+               *args.overlay)
+    print(f"chain {cfg['drivetrain']['name']!r}: {len(cfg['drivetrain']['disks'])} disks, "
+          f"{len(cfg['drivetrain']['shafts'])} shafts, {len(cfg['drivetrain']['gears'])} "
+          f"gears; free {cfg['fit']['free']}", flush=True)
     free = list(cfg["fit"]["free"])
     fp = FreeParameters.from_config(cfg, free)
     fc = cfg["fit"]   # the workflow's search settings (workflow/scripts/fit.py)
