@@ -249,7 +249,8 @@ def residual_vkf(x: np.ndarray, fs: float, pulse_times: np.ndarray, families: Fa
     else:
         log.warning("Vold-Kalman backfitting stopped after max_iter = %d passes with the "
                     "residual still changing by %.2g of the harmonics found (tol %.2g): "
-                    "raise max_iter", max_iter, change, tol)
+                    "raise max_iter (removal.vkf.max_iter in the config) or widen the "
+                    "bandwidth if orders lie within it", max_iter, change, tol)
     out = rec.x.copy()
     out[rec.span] = r + waves[0]
     return out
