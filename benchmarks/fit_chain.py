@@ -11,8 +11,10 @@ the excitation, which the record carries as its reference, with its 95 % magnitu
 bounds, kept where coherent, as the identify stage computes it for a bench record) of
 the example's pairings is fitted from the nominal chain
 (:func:`gbpipe.model.fit.fit_parameters`, sigma from the bounds, the model seen through
-the estimate's Hann window: ``FrfData.segment``; no delay: the record's zero-order hold
-is removed from the data as its known response, a half-sample lag and a sinc droop).
+the estimate's Hann window, ``FrfData.segment``, as a ratio of smoothed spectra whose
+input spectrum the drive motor's loop shapes, ``FrfData.excitation``; no delay: the
+record's zero-order hold is removed from the data as its known response, a half-sample
+lag and a sinc droop).
 Printed per seed: errors, whether each 95 % interval covers the truth (a parameter
 without an interval does not), the chi-square verdict, the cost ratio to the truth's.
 
@@ -24,15 +26,16 @@ diagram's): errors of the identified parameters and the combinations named.
 Each cause of yesterday's misses can be put back: ``--h1`` (H1 instead of the
 reference-based estimate: the noise of the measured motor torque biases it),
 ``--no-window`` (the model compared with the Welch estimate as if it were the FRF itself:
-resolution bias at the modes), ``--oversample 1`` (the record sampled straight from the
-held-excitation simulation: the excitation's images in the motor torque bias every
-output/torque ratio near a mode, up to 7 %).
+resolution bias at the modes), ``--flat-input`` (the window kept, the input's spectrum
+taken as flat over it: ``K⊛G`` instead of ``K⊛(G·P)/K⊛P``), ``--oversample 1`` (the
+record sampled straight from the held-excitation simulation: the excitation's images in
+the motor torque bias every output/torque ratio near a mode, up to 7 %).
 
 ``--overlay benchmarks/chains/shaftline_long.yaml`` runs the same on the shaft line drawn
 as 22 disks with three gear stages (its shafts in segments, a third stage).
 
 Usage: ``OMP_NUM_THREADS=1 python benchmarks/fit_chain.py [--seeds 20] [--duration 30]
-[--h1] [--no-window] [--oversample 16] [--overlay FILE ...]``.
+[--h1] [--no-window] [--flat-input] [--oversample 16] [--overlay FILE ...]``.
 """
 
 from __future__ import annotations
@@ -68,6 +71,9 @@ def main() -> None:
     ap.add_argument("--no-window", action="store_true",
                     help="compare the Welch estimate with the model itself, not with the "
                          "model seen through the window")
+    ap.add_argument("--flat-input", action="store_true",
+                    help="the window kept, the excitation not named: the input's spectrum "
+                         "taken as flat over the kernel")
     ap.add_argument("--oversample", type=int, default=OVERSAMPLE,
                     help="simulation rate over the record's (1: no anti-alias filter)")
     ap.add_argument("--f-modes", type=float, default=350.0,
@@ -96,6 +102,8 @@ def main() -> None:
         data = record_data(cfg, truth, seed, args.duration, FS, not args.h1, args.oversample)
         if args.no_window:
             data = [FrfData(d.pairing, d.f_hz, d.frf, d.sigma) for d in data]
+        elif args.flat_input:
+            data = [FrfData(d.pairing, d.f_hz, d.frf, d.sigma, d.segment) for d in data]
         r = FrfResiduals(fp, data, False).residual(np.log(factors))
         t = time.process_time()
         res = fit_parameters(cfg, data, free, seed=seed, **common)

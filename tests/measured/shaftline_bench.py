@@ -139,8 +139,9 @@ def record_data(cfg: dict, truth: dict, seed: int, duration: float,
     ``cfg["identify"]``: the closed-loop estimate through the excitation (``S_yr S_ur⁻¹``,
     :func:`gbpipe.identify.nonparametric_reference`; the record carries its reference)
     where coherent, inside ``cfg["fit"]["band"]`` [Hz], sigma from its 95 % bounds, the
-    zero-order hold's own response divided out, the Welch segment named
-    (``FrfData.segment``: the fit compares with the model seen through the window).
+    zero-order hold's own response divided out, the Welch segment and the excited motor
+    named (``FrfData.segment``, ``FrfData.excitation``: the fit compares with the model
+    seen through the window, weighted by the input's spectrum the motor's loop shapes).
     ``reference=False``: H1 instead, biased by the noise of the measured motor torque.
     """
     motor = truth["drivetrain"]["motors"][0]["name"]
@@ -162,7 +163,8 @@ def record_data(cfg: dict, truth: dict, seed: int, duration: float,
         hold = np.exp(-1j * np.pi * f / (fs * oversample)) * np.sinc(f / (fs * oversample))
         g = ref.frf[keep] / hold[:, None, None]
         out.append(FrfData(pairing, f, g, sigma_from_bounds(ref.lower[keep], ref.upper[keep]),
-                           s["nonparametric"]["segment"]))
+                           s["nonparametric"]["segment"], motor,
+                           "reference" if reference else "h1"))
     return out
 
 

@@ -82,7 +82,7 @@ def jackknife_intervals(result: FitResult, data: Sequence[FrfData], n_bands: int
             g = d.frf.copy()
             g[band_of(d.f_hz, edges) == b] = np.nan
             if np.isfinite(g).any():
-                kept.append(FrfData(d.pairing, d.f_hz, g, d.sigma, d.segment))
+                kept.append(dataclasses.replace(d, frf=g))
         # one local run from the optimum: the band's absence moves it, not a new search
         r = fit_parameters(result.config, kept, free, n_starts=1, n_global=0,
                            search="starts", **kwargs)
