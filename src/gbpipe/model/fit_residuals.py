@@ -79,8 +79,7 @@ class FrfResiduals:
         # sensor response is evaluated on the same nodes: a pairing of its own)
         kernels = [_kernels(d, m) for d, m in zip(data, self.steps, strict=True)]
         loops = [_excited_motor(free, d, motors) for d in data]
-        grids = [np.round(np.concatenate([f + k[0] for f, k in zip(d.f_hz, ks, strict=True)]), 9)
-                 for d, ks in zip(data, kernels, strict=True)]
+        grids = [_grid(d, ks) for d, ks in zip(data, kernels, strict=True)]
         pairings = [d.pairing for d in data]
         loop_pairings, loop_grids, loop_gains = [], [], []
         for d, m, grid in zip(data, loops, grids, strict=True):
@@ -193,6 +192,16 @@ def _kernels(data: FrfData, steps: np.ndarray) -> list[tuple[np.ndarray, np.ndar
         return [(np.zeros(1), np.ones(1))] * data.f_hz.size
     rules = {int(m): welch_kernel(data.segment, int(m)) for m in np.unique(steps)}
     return [rules[int(m)] for m in steps]
+
+
+def _grid(data: FrfData, kernels: list[tuple[np.ndarray, np.ndarray]]) -> np.ndarray:
+    """Every frequency [Hz] the model is evaluated at for ``data``: its own, or each with
+    its kernel's nodes (rounded to 1e-9 Hz, so that neighbours' shared nodes, equal up
+    to the last bit, are one point of the union the plant is solved on)."""
+    if data.segment is None:
+        return data.f_hz
+    return np.round(np.concatenate([f + k[0] for f, k in zip(data.f_hz, kernels,
+                                                              strict=True)]), 9)
 
 
 def _kernel_steps(free: FreeParameters, data: FrfData) -> np.ndarray:
