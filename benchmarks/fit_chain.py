@@ -52,12 +52,12 @@ from gbpipe.model.fit import fit_parameters
 from gbpipe.model.fit_modes import ModalResiduals, modal_data_of
 from gbpipe.model.fit_residuals import FrfResiduals
 from gbpipe.model.frf_data import FrfData
-from gbpipe.model.keypath import get_value, with_values
+from gbpipe.model.keypath import get_value
 from gbpipe.model.parameters import FreeParameters
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
-from tests.measured.shaftline_bench import OVERSAMPLE, record_data  # noqa: E402
+from tests.measured.shaftline_bench import OVERSAMPLE, perturbed, record_data  # noqa: E402
 
 FS = 2000.0
 
@@ -95,9 +95,7 @@ def main() -> None:
     rows, rows_m, cpus = [], [], []
     for seed in range(args.seeds):
         rng = np.random.default_rng(seed)
-        factors = (1 + rng.choice([-1, 1], len(free)) * rng.uniform(0.15, 0.40, len(free)))
-        truth = with_values(cfg, {p: get_value(cfg, p) * x for p, x in
-                                  zip(free, factors, strict=True)})
+        truth, factors = perturbed(cfg, free, rng)
         true = np.array([get_value(truth, p) for p in free])
         data = record_data(cfg, truth, seed, args.duration, FS, not args.h1, args.oversample)
         if args.no_window:

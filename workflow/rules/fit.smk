@@ -26,10 +26,13 @@ def _fit_inputs(w):
 
 
 def _fit_pairings():
-    # the fitted pairings with the bench model's signal names (fit.signals)
+    # the fitted pairings with the bench model's signal names (fit.signals); a mapped
+    # set-point (reference) stays a record signal: it says which estimator fit.data:
+    # nonparametric sees
     return [{"name": p["name"],
              **{k: [gbpipe.config.model_signal(config, s) for s in p[k]]
-                for k in ("inputs", "outputs")}}
+                for k in ("inputs", "outputs")},
+             **({"reference": p["reference"]} if "reference" in p else {})}
             for p in config["identify"]["pairings"] if p["name"] in config["fit"]["pairings"]]
 
 
@@ -49,7 +52,8 @@ rule fit:
         unpack(_fit_inputs),
         code=code("fit.py"),
     params:
-        cfg={"seed": config["seed"], "fit": config["fit"], "pairings": _fit_pairings()},
+        cfg={"seed": config["seed"], "fit": config["fit"], "pairings": _fit_pairings(),
+             "segment": config["identify"]["nonparametric"]["segment"]},
         prior=_fit_prior(),
         n_free=len(config["fit"]["free"]),
     output:

@@ -43,6 +43,10 @@ def check_fit(cfg: Mapping[str, Any]) -> None:
         _check_modes(cfg)
         _check_free(cfg)
         return
+    if fit["data"] == "nonparametric" and not cfg["measured"]:
+        raise ConfigError("fit.data", "nonparametric fits a bench record's Welch FRF; a "
+                          "simulated record's reference is the true model: map bench "
+                          "records (measured:) or set fit.data: frf")
     if cfg["measured"]:
         records, what = list(cfg["measured"]), "bench records (measured:)"
     else:
@@ -52,7 +56,7 @@ def check_fit(cfg: Mapping[str, Any]) -> None:
         _among(f"fit.records[{i}]", r, records, what)
     _among("fit.version", fit["version"], list(idc["versions"]), "identify.versions")
     _among("fit.method", fit["method"], list(idc["methods"]), "identify.methods")
-    if fit["weight"] != "uniform" and not (
+    if fit["data"] == "frf" and fit["weight"] != "uniform" and not (
             fit["method"] in idc["bounds"]["methods"] and idc["bounds"]["groups"] > 0):
         raise ConfigError("fit.weight", f"'{fit['weight']}' needs the 95 % bounds of the "
                           f"{fit['method']} models: add it to identify.bounds.methods with "

@@ -93,16 +93,18 @@ def fig_fit(ds: xr.Dataset, stem: str | os.PathLike, caption: str | os.PathLike,
         g = ds[f"{name}_real"].values[k, :, o, i] + 1j * ds[f"{name}_imag"].values[k, :, o, i]
         return 20 * np.log10(np.abs(g))
 
+    welch = ds.attrs.get("data") == "nonparametric"
+    source = "Welch estimate" if welch else "identified"
     for n, (k, o, i) in enumerate(pairs):
         ax = ax_of[f"p{n}"]
         used = ds.fitted.values[k].astype(bool)
         ax.fill_between(f, ds.frf_data_lower_db.values[k, :, o, i],
                         ds.frf_data_upper_db.values[k, :, o, i], color="C0", alpha=0.25,
-                        lw=0, label="identified, 95 %")
+                        lw=0, label=f"{source}, 95 %")
         data = db("frf_data", k, o, i)
-        ax.semilogx(f, np.where(used, data, np.nan), "C0", lw=1.6, label="identified (fitted)")
+        ax.semilogx(f, np.where(used, data, np.nan), "C0", lw=1.6, label=f"{source} (fitted)")
         ax.semilogx(f, np.where(used, np.nan, data), "C0", lw=0.8, ls=":",
-                    label="identified (not fitted)")
+                    label=f"{source} (not fitted)")
         ax.semilogx(f, db("frf_prior", k, o, i), "C3", lw=0.9, ls="--", label="prior model")
         ax.semilogx(f, db("frf_fitted", k, o, i), "k", lw=0.9, label="fitted model")
         suffix = f" [{o},{i}]" if ds.sizes["output"] * ds.sizes["input"] > 1 else ""
@@ -129,18 +131,24 @@ def fig_fit(ds: xr.Dataset, stem: str | os.PathLike, caption: str | os.PathLike,
     table = ax_of["table"].table(cellText=rows, colLabels=[
         "parameter", "unit", "prior", "fitted",
         f"95 % interval ({ds.attrs['interval_method']})", "status"],
-                              loc="center", cellLoc="left")
+                              loc="center", cellLoc="left",
+                              # key paths and the interval's method need the room
+                              colWidths=[0.30, 0.10, 0.10, 0.10, 0.28, 0.12])
     table.auto_set_font_size(False)
     table.set_fontsize(7)
-    what = (f"the identified FRFs ({ds.attrs['version']} data)" if frf
-            else f"a modal table ({ds.attrs['system']} modes)")
+    what = (f"a modal table ({ds.attrs['system']} modes)" if not frf
+            else f"the record's Welch FRFs ({ds.attrs['version']} data)" if welch
+            else f"the identified FRFs ({ds.attrs['version']} data)")
     fig.suptitle(f"Physical fit to {what}, {record}\ngoodness of fit: "
                  f"{ds.attrs['fit_status']} ({ds.attrs['fit_reason']})", fontsize=9)
     save(fig, stem)
     numbers = fit_numbers(ds)
     write_caption(caption, f"Physical fit, {record}", "extension (the paper's future work)",
-                  "Identified FRF (blue, 95 % bounds shaded; dotted where not fitted: outside "
-                  "the band or where the design step predicts the pairing unidentifiable), "
+                  "Identified FRF, or with fit.data: nonparametric the record's Welch "
+                  "estimate (blue, 95 % bounds shaded; dotted where not fitted: outside "
+                  "the band, where the design step predicts the pairing unidentifiable, or "
+                  "where the estimate is not coherent; a Welch estimate is compared with "
+                  "the model seen through its window, the curves show the model itself), "
                   "the bench model at the prior (red, dashed) and the fitted model (black), "
                   "and the fitted parameters with their 95 % intervals. An unidentifiable "
                   "parameter keeps its prior and gets no interval; a fit that fails the "

@@ -317,6 +317,14 @@ def fit_parameters(cfg: Mapping[str, Any], data: Sequence[FrfData] | ModalData,
         runs.append(evolution_run(problem, lo, hi, seed))
         theta, cost = min(runs, key=lambda r: r[1])
         how = "starts + evolution"
+    if isinstance(problem, FrfResiduals):
+        # the window-kernel rule was refined at the prior; the optimum's modes may sit
+        # elsewhere: refine it there too and polish the optimum on the refined rule
+        refined = problem.refined(theta)
+        if refined is not problem:
+            problem = refined
+            cost_prior = 0.5 * float(np.sum(problem.residual(theta0) ** 2))
+            theta, cost = local_run(problem, theta, everything, lo, hi)
 
     m = problem.size
     rms = np.sqrt(2 * cost / max(m - nu, 1))

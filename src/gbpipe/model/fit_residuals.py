@@ -57,20 +57,25 @@ class FrfResiduals:
     delay : bool
         Add one unknown: an input-to-output delay [ms] applied to every model FRF.
     steps : sequence of array_like of int, optional
-        Window-kernel nodes per resolution (:func:`gbpipe.model.frf_data.welch_kernel`)
-        for each frequency of each Welch estimate. Default: 2, doubled at the frequencies
-        where the prior model's expected estimate still moves by more than a tenth of
-        the data's sigma (1e-3 without sigma) between ``m`` and ``2m`` nodes, at most
+        One entry per data item: window-kernel nodes per resolution
+        (:func:`gbpipe.model.frf_data.welch_kernel`) at each of its frequencies (ignored
+        without a Welch segment). Default: 2, doubled at the frequencies where the prior
+        model's expected estimate still moves by more than a tenth of the data's sigma
+        (1e-3 without sigma) between ``m`` and ``2m`` nodes, at most
         :data:`MAX_KERNEL_STEPS`: fine nodes only near a mode narrower than the rule.
+        :meth:`refined` refines them at another ``θ`` (the fit's optimum: its modes
+        may have moved off the prior's).
     """
 
     def __init__(self, free: FreeParameters, data: Sequence[FrfData], delay: bool,
                  steps: Sequence[Any] | None = None) -> None:
         self.free = free
         self.n = len(free.paths)
+        self.data = list(data)
+        self.delay = delay
         motors = {m.name: m for m in bench_chain(free.cfg).motors}
         if steps is None:
-            steps = [_kernel_steps(free, d) for d in data]
+            steps = [_kernel_steps(free, d, np.zeros(self.n)) for d in data]
         self.steps = [np.broadcast_to(np.asarray(m, dtype=int), d.f_hz.shape)
                       for d, m in zip(data, steps, strict=True)]
         # a Welch estimate is compared with the model's expected estimate: the model on the
@@ -149,6 +154,18 @@ class FrfResiduals:
         self.has_sigma = data[0].sigma is not None
         self.n_evaluations = 0
 
+    def refined(self, theta: np.ndarray) -> FrfResiduals:
+        """This residual set with the kernel rule refined at ``θ`` too (per frequency the
+        larger of the present steps and those :meth:`__init__` would choose at ``θ``);
+        itself when nothing changes."""
+        steps = [np.maximum(m, _kernel_steps(self.free, d, theta[:self.n]))
+                 for d, m in zip(self.data, self.steps, strict=True)]
+        if all(np.array_equal(a, b) for a, b in zip(steps, self.steps, strict=True)):
+            return self
+        out = FrfResiduals(self.free, self.data, self.delay, steps)
+        out.n_evaluations = self.n_evaluations
+        return out
+
     @property
     def size(self) -> int:
         """Number of residuals."""
@@ -171,8 +188,8 @@ class FrfResiduals:
             g = np.einsum("ij,ij->i", flat[self.where], w) / w.sum(axis=1)
         if self.delay_phase is None:
             return g
-        # the delay at the value's own frequency, not per kernel node: over ±1/T its
-        # phase changes by 2π·τ/T (6e-4 rad for 0.1 ms and 1 s segments)
+        # the delay at the value's own frequency, not per kernel node: over ±3/T its
+        # phase changes by 6π·τ/T (2e-3 rad for 0.1 ms and 1 s segments)
         return g * np.exp(-1j * self.delay_phase * theta[self.n])
 
     def residual(self, theta: np.ndarray) -> np.ndarray:
@@ -204,28 +221,21 @@ def _grid(data: FrfData, kernels: list[tuple[np.ndarray, np.ndarray]]) -> np.nda
                                                               strict=True)]), 9)
 
 
-def _kernel_steps(free: FreeParameters, data: FrfData) -> np.ndarray:
+def _kernel_steps(free: FreeParameters, data: FrfData, theta: np.ndarray) -> np.ndarray:
     """Kernel nodes per resolution at each frequency of ``data``: 2, doubled where the
-    prior model's expected estimate moves by more than a tenth of the data's sigma (1e-3
-    without sigma) between ``m`` and ``2m`` nodes (the trapezoid rule converges
-    exponentially, so the move is the coarser rule's error); at most
-    :data:`MAX_KERNEL_STEPS`, with a warning where it has not settled (a mode narrower
-    than the finest rule)."""
+    model's expected estimate at ``θ`` moves by more than a tenth of the data's sigma
+    (1e-3 without sigma) between ``m`` and ``2m`` nodes (once the trapezoid rule
+    converges exponentially the move is the coarser rule's error); at most
+    :data:`MAX_KERNEL_STEPS`, with a warning where the last doubling still moved the
+    value (a mode narrower than the finest rule resolves)."""
     steps = np.full(data.f_hz.size, 1 if data.segment is None else 2)
     if data.segment is None:
         return steps
-    theta = np.zeros(len(free.paths))
     freq = (np.arange(data.frf.size) // data.frf[0].size)[data.mask.ravel()]
     tol = 0.1 * data.sigma[data.mask] if data.sigma is not None else 1e-3
     coarse = FrfResiduals(free, [data], False, [steps]).values(theta)
     active = np.ones(steps.size, dtype=bool)
     while active.any():
-        if steps[active].max() >= MAX_KERNEL_STEPS:
-            log.warning("FRF of pairing %s: the window-kernel rule still moves at %d nodes "
-                        "per resolution at %s Hz (a mode narrower than the finest rule); "
-                        "the fit uses it", data.pairing.name, MAX_KERNEL_STEPS,
-                        np.round(data.f_hz[active], 3).tolist())
-            break
         trial = np.where(active, 2 * steps, steps)
         fine = FrfResiduals(free, [data], False, [trial]).values(theta)
         moved = np.zeros(steps.size, dtype=bool)
@@ -233,7 +243,15 @@ def _kernel_steps(free: FreeParameters, data: FrfData) -> np.ndarray:
         # where the finer rule moved the value, the coarser one was off: keep the finer
         # and test it in turn; elsewhere the coarser one has settled
         steps = np.where(moved, trial, steps)
-        active, coarse = moved, fine
+        coarse = np.where(moved[freq], fine, coarse)
+        active = moved
+        if active.any() and steps.max() >= MAX_KERNEL_STEPS:
+            log.warning("FRF of pairing %s: the window-kernel rule still moved between %d "
+                        "and %d nodes per resolution at %s Hz (a mode narrower than the "
+                        "finest rule resolves); the fit uses %d", data.pairing.name,
+                        MAX_KERNEL_STEPS // 2, MAX_KERNEL_STEPS,
+                        np.round(data.f_hz[active], 3).tolist(), MAX_KERNEL_STEPS)
+            break
     return steps
 
 

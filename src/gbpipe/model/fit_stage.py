@@ -20,17 +20,18 @@ import xarray as xr
 
 from gbpipe.errors import DataError
 from gbpipe.lti import pad
-from gbpipe.model.assembly import bench_ss
+from gbpipe.model.assembly import bench_chain, bench_ss
+from gbpipe.model.chain import Motor
 from gbpipe.model.fit import FitResult, fit_parameters
 from gbpipe.model.fit_bands import jackknife_intervals
 from gbpipe.model.fit_modes import read_modes_table
 from gbpipe.model.fit_report import cf_var, modal_fit_dataset, result_variables
 from gbpipe.model.frf import MOTOR_INPUTS, Pairing, pairing_frf
-from gbpipe.model.frf_data import FrfData, sigma_from_bounds
+from gbpipe.model.frf_data import KERNEL_REACH, FrfData, sigma_from_bounds
 from gbpipe.model.identifiability import design_outputs
 
-__all__ = ["fit_data", "fit_dataset", "fit_record", "assessable_band", "WEIGHTS",
-           "CANDIDATE_OUTPUTS"]
+__all__ = ["fit_data", "nonparametric_data", "fit_dataset", "fit_record", "assessable_band",
+           "WEIGHTS", "CANDIDATE_OUTPUTS"]
 
 log = logging.getLogger(__name__)
 
@@ -139,6 +140,64 @@ def fit_data(identified: xr.Dataset, identifiable: xr.DataArray, pairings: Seque
     return out
 
 
+def nonparametric_data(identified: xr.Dataset, pairings: Sequence[Mapping[str, Any]],
+                       version: str, band: Sequence[float], segment: float,
+                       motors: Sequence[Motor]) -> list[FrfData]:
+    """A bench record's nonparametric FRFs to fit (``fit.data: nonparametric``).
+
+    The identify stage's reference of a bench record is the Welch estimate of the
+    conditioned record on its own grid (``frf_reference_*``, 95 % magnitude bounds
+    ``frf_reference_{lower,upper}``): through the mapped set-point where the pairing has
+    one (``reference``), else H1. Kept where it is coherent and off the order lines
+    (``assessable``) and inside ``band``; sigma from its bounds; the estimate's Hann
+    ``segment`` [s] and estimator named, and the motor whose torque is the pairing's
+    input named as the excitation's entry (the record's excitation is taken to reach the
+    chain through that motor's command, so its loop shapes the input's spectrum): the
+    fit compares the data with the model's expected estimate (docs/fit.md).
+
+    Raises
+    ------
+    DataError
+        A simulated record (its reference is the true model), a pairing without bounds
+        where it is fitted, or nothing coherent in the band.
+    """
+    if identified.attrs.get("reference") == "truth":
+        raise DataError("fit.data", "nonparametric needs a bench record: this record's "
+                                    "reference is the true model (fit.data: frf)")
+    f = identified.frequency.values
+    reach = KERNEL_REACH / segment    # the window kernel's nodes must stay above 0 Hz
+    by_input = {m.input: m.name for m in motors if m.controller.type != "none"}
+    out = []
+    for q in pairings:
+        p = Pairing.from_config(q)
+        d = identified.isel(model=_model_index(identified, p.name, version))
+        no, ni = len(p.outputs), len(p.inputs)
+        g = (d.frf_reference_real + 1j * d.frf_reference_imag).values[:, :no, :ni].copy()
+        lo = d.frf_reference_lower.values[:, :no, :ni]
+        hi = d.frf_reference_upper.values[:, :no, :ni]
+        keep = ((f >= band[0]) & (f <= band[1]) & (f > reach)
+                & d.assessable.values.astype(bool))
+        keep &= np.all(np.isfinite(g) & (lo > 0) & np.isfinite(hi), axis=(1, 2))
+        if not keep.any():
+            log.info("%s: no coherent estimate in %s Hz, left out", p.name, list(band))
+            continue
+        g[~keep] = np.nan
+        sigma = np.where(keep[:, None, None], sigma_from_bounds(np.where(lo > 0, lo, 1.0),
+                                                                np.where(lo > 0, hi, 1.0)), 1.0)
+        excitation = by_input.get(p.inputs[0]) if ni == 1 else None
+        estimator = "reference" if q.get("reference") else "h1"
+        out.append(FrfData(p, f, g, sigma, segment, excitation, estimator))
+        log.info("%s: %d frequencies from %.1f to %.1f Hz, %s estimate, %g s segments, "
+                 "input spectrum %s, sigma median %.2g Np", p.name, int(keep.sum()),
+                 f[keep].min(), f[keep].max(), estimator, segment,
+                 f"shaped by motor {excitation}'s loop" if excitation else "taken as flat",
+                 float(np.median(sigma[keep])))
+    if not out:
+        raise DataError("fit data", f"no pairing's nonparametric FRF is coherent in "
+                                    f"{list(band)} Hz: widen fit.band or record longer")
+    return out
+
+
 def _candidates(data: Sequence[FrfData], cfg: Mapping[str, Any]) -> list[Pairing]:
     # an added sensor (another output of a fitted input) or an added excitation (the
     # other motor's torque to any output): every SISO path not fitted yet; a configured
@@ -154,7 +213,7 @@ def _candidates(data: Sequence[FrfData], cfg: Mapping[str, Any]) -> list[Pairing
 
 
 def fit_dataset(result: FitResult, data: Sequence[FrfData], prior_cfg: Mapping[str, Any],
-                identified: xr.Dataset, version: str) -> xr.Dataset:
+                identified: xr.Dataset, version: str, source: str = "frf") -> xr.Dataset:
     """Everything one fit produced, as a CF dataset (docs/architecture.md, "Data contract").
 
     Parameters
@@ -168,6 +227,9 @@ def fit_dataset(result: FitResult, data: Sequence[FrfData], prior_cfg: Mapping[s
         The identify output (for the 95 % bounds drawn with the data).
     version : str
         The fitted data version.
+    source : {"frf", "nonparametric"}
+        What was fitted (``fit.data``): the identified models' FRFs, or the record's
+        Welch estimate (the identify output's ``frf_reference_*``); written as the data.
     """
     pairings = [d.pairing for d in data]
     f = data[0].f_hz
@@ -184,9 +246,17 @@ def fit_dataset(result: FitResult, data: Sequence[FrfData], prior_cfg: Mapping[s
     for d, row in zip(data, rows, strict=True):
         m = identified.isel(model=row)
         o, i = len(d.pairing.outputs), len(d.pairing.inputs)
-        full.append((m.frf_identified_real + 1j * m.frf_identified_imag).values[:, :o, :i])
-        lower.append(m.frf_identified_lower_db.values[:, :o, :i])
-        upper.append(m.frf_identified_upper_db.values[:, :o, :i])
+        if source == "nonparametric":
+            full.append((m.frf_reference_real + 1j * m.frf_reference_imag).values[:, :o, :i])
+            with np.errstate(divide="ignore", invalid="ignore"):
+                lower.append(20 * np.log10(m.frf_reference_lower.values[:, :o, :i]))
+                upper.append(20 * np.log10(m.frf_reference_upper.values[:, :o, :i]))
+        else:
+            full.append((m.frf_identified_real + 1j * m.frf_identified_imag).values[:, :o, :i])
+            lower.append(m.frf_identified_lower_db.values[:, :o, :i])
+            upper.append(m.frf_identified_upper_db.values[:, :o, :i])
+    what = ("nonparametric (Welch) FRF of the record" if source == "nonparametric"
+            else "identified FRF")
     g_data = stacked(full)
     g_prior = stacked(pairing_frf(prior_cfg, pairings, f))
     g_fit = stacked(pairing_frf(result.config, pairings, f))
@@ -213,13 +283,13 @@ def fit_dataset(result: FitResult, data: Sequence[FrfData], prior_cfg: Mapping[s
         "fitted": cf_var(("pairing", "frequency"), fitted, "1",
                       "frequency entered the fit (in band, predicted identifiable)"),
         "frf_data_real": cf_var(fdim, g_data.real, "mixed (see frf_unit)",
-                             "identified FRF (the data), real part"),
+                             f"{what} (the data), real part"),
         "frf_data_imag": cf_var(fdim, g_data.imag, "mixed (see frf_unit)",
-                             "identified FRF (the data), imaginary part"),
+                             f"{what} (the data), imaginary part"),
         "frf_data_lower_db": cf_var(fdim, stacked(lower), "dB",
-                                 "95 % lower bound of the identified magnitude"),
+                                 f"95 % lower bound of the magnitude of the {what}"),
         "frf_data_upper_db": cf_var(fdim, stacked(upper), "dB",
-                                 "95 % upper bound of the identified magnitude"),
+                                 f"95 % upper bound of the magnitude of the {what}"),
         "frf_prior_real": cf_var(fdim, g_prior.real, "mixed (see frf_unit)",
                               "model FRF at the prior, real part"),
         "frf_prior_imag": cf_var(fdim, g_prior.imag, "mixed (see frf_unit)",
@@ -246,7 +316,7 @@ def fit_dataset(result: FitResult, data: Sequence[FrfData], prior_cfg: Mapping[s
             ["(as fitted)" if r["added"] is None else r["added"] for r in design]), "1",
             "output added by the design help (first: none)"),
     })
-    return xr.Dataset(v, coords=c, attrs={**attrs, "data": "frf", "version": version})
+    return xr.Dataset(v, coords=c, attrs={**attrs, "data": source, "version": version})
 
 
 def fit_record(cfg: Mapping[str, Any], prior: Mapping[str, Any], *,
@@ -257,11 +327,12 @@ def fit_record(cfg: Mapping[str, Any], prior: Mapping[str, Any], *,
     Parameters
     ----------
     cfg : mapping
-        The rule's config slice: ``fit``, ``pairings`` (of ``identify``), ``seed``.
+        The rule's config slice: ``fit``, ``pairings`` (of ``identify``), ``seed``,
+        ``segment`` (``identify.nonparametric.segment``, for ``fit.data: nonparametric``).
     prior : mapping
         The configuration the fit starts from (``fit.start`` merged).
     identified : xarray.Dataset, optional
-        The record's identify output (``fit.data: frf``).
+        The record's identify output (``fit.data: frf`` or ``nonparametric``).
     design : xarray.Dataset, optional
         The design output of a simulated record: its predicted identifiable band. A bench
         record (None) is fitted where its nonparametric FRF is coherent.
@@ -288,10 +359,15 @@ def fit_record(cfg: Mapping[str, Any], prior: Mapping[str, Any], *,
                  ", ".join(fit["free"]), data.frequency_hz.size, modes_file, m["system"])
         res = fit_parameters(prior, data, fit["free"], **common)
     else:
-        band = (design.identifiable.sel(version=fit["version"]) if design is not None
-                else assessable_band(identified, fit["version"]))
-        data = fit_data(identified, band, pairings, fit["version"], fit["band"],
-                        fit["weight"])
+        if fit["data"] == "nonparametric":
+            data = nonparametric_data(identified, cfg["pairings"], fit["version"],
+                                      fit["band"], float(cfg["segment"]),
+                                      bench_chain(prior).motors)
+        else:
+            band = (design.identifiable.sel(version=fit["version"]) if design is not None
+                    else assessable_band(identified, fit["version"]))
+            data = fit_data(identified, band, pairings, fit["version"], fit["band"],
+                            fit["weight"])
         log.info("fitting %s from the prior (fit.start) to %d pairings, version %s",
                  ", ".join(fit["free"]), len(data), fit["version"])
         res = fit_parameters(prior, data, fit["free"], delay=fit["delay"],
@@ -314,7 +390,7 @@ def fit_record(cfg: Mapping[str, Any], prior: Mapping[str, Any], *,
                  g.band_edges[k], g.band_edges[k + 1], 100 * share,
                  100 * g.band_count_share[k])
     ds = (modal_fit_dataset(res, m["system"], prior) if fit["data"] == "modes"
-          else fit_dataset(res, data, prior, identified, fit["version"]))
+          else fit_dataset(res, data, prior, identified, fit["version"], fit["data"]))
     if "design_rank" in ds:
         for added, rank, names in zip(ds.candidate.values, ds.design_rank.values,
                                       ds.design_identifiable.values, strict=True):
