@@ -54,8 +54,9 @@ def test_agreeing_starts_in_a_wrong_basin_do_not_end_the_search():
     """The shaft line of config/examples/shaftline.yaml with its three free parameters
     perturbed (seeds 0 and 1 of benchmarks/fit_chain.py, ``perturbed``: stable draws; on
     the H1 FRFs of the record sampled without anti-alias filter, an earlier draw of seed 0
-    sent two starts into one wrong basin that passed the chi-square test). Data: the reference-based Welch FRFs of a 30 s record
-    (tests/measured/shaftline_bench.py). With ``search="auto"`` the fit ends at
+    sent two starts into one wrong basin that passed the chi-square test). Data: the
+    reference-based Welch FRFs of a 30 s record (tests/measured/shaftline_bench.py).
+    With ``search="auto"`` the fit ends at
     the cost at the truth or below (not above it by more than the chi-square's own
     spread would excuse) and no parameter it calls identified lies outside 10 % of the
     truth."""
