@@ -16,6 +16,7 @@ is collected (conftest.py); their jobs are told apart by their working directory
 
 from __future__ import annotations
 
+import os
 import re
 import sys
 from collections import Counter
@@ -23,6 +24,7 @@ from pathlib import Path
 
 import pytest
 import xarray as xr
+from slurm_local import _stale_test_link
 from slurm_runs import MEMORY, slurm_jobs
 
 from tests.conftest import ROOT
@@ -101,3 +103,24 @@ def test_a_study_of_four_gearboxes_on_slurm_matches_its_local_run(
     assert {j["rule"] for j in jobs} == {f"{r}_{x}" for r in runs
                                          for x in ("kinematics", "model", "figures_model")}
     _assert_same_results(local, run.work, "*/tables/*.csv", min_netcdf=16)
+
+
+def test_only_a_dead_test_clusters_link_counts_as_stale(tmp_path):
+    """The test cluster replaces /etc/slurm/slurm.conf only when it is its own leftover:
+    a link into a pruned pytest folder (a killed session) is stale; a dangling link
+    elsewhere, a regular file, or a link to a live cluster's folder is not."""
+    conf = tmp_path / "slurm.conf"
+    conf.symlink_to(tmp_path / "pytest-of-root" / "pytest-7" / "slurm0" / "slurm.conf")
+    assert _stale_test_link(conf)
+    conf.unlink()
+    conf.symlink_to(Path("/nonexistent-site/etc/slurm/slurm.conf"))   # not a test folder
+    assert not _stale_test_link(conf)
+    conf.unlink()
+    conf.write_text("ClusterName=site\n")
+    assert not _stale_test_link(conf)
+    conf.unlink()
+    live = tmp_path / "live"
+    live.mkdir()
+    (live / "pids.json").write_text(f"[[{os.getpid()}]]")
+    conf.symlink_to(live / "slurm.conf")
+    assert not _stale_test_link(conf)
