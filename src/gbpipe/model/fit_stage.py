@@ -248,9 +248,10 @@ def fit_dataset(result: FitResult, data: Sequence[FrfData], prior_cfg: Mapping[s
         o, i = len(d.pairing.outputs), len(d.pairing.inputs)
         if source == "nonparametric":
             full.append((m.frf_reference_real + 1j * m.frf_reference_imag).values[:, :o, :i])
-            with np.errstate(divide="ignore", invalid="ignore"):
-                lower.append(20 * np.log10(m.frf_reference_lower.values[:, :o, :i]))
-                upper.append(20 * np.log10(m.frf_reference_upper.values[:, :o, :i]))
+            # a bound of 0 (an estimate too poor for a lower bound) is no level in dB: NaN
+            for bound, out in ((m.frf_reference_lower, lower), (m.frf_reference_upper, upper)):
+                b = bound.values[:, :o, :i]
+                out.append(20 * np.log10(np.where(b > 0, b, np.nan)))
         else:
             full.append((m.frf_identified_real + 1j * m.frf_identified_imag).values[:, :o, :i])
             lower.append(m.frf_identified_lower_db.values[:, :o, :i])
