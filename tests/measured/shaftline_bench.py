@@ -102,6 +102,9 @@ def simulate(cfg: dict, fs: float, duration: float, seed: int, tacho_disk: str,
     directly, the held excitation's images fold into the motor torque, whose notch at a
     mode then makes output/torque ratios differ from the chain's FRF (up to 7 % at the
     shaft line's 33 Hz mode at 2 kHz; the difference falls as ``1/oversample``)."""
+    # a closed loop that grows is no bench record (its Welch estimate has no stationary
+    # expectation): refused, naming the gain
+    check_stability(cfg)
     rng = np.random.default_rng(seed)
     ss = bench_ss(cfg)
     n = int(round(duration * fs))

@@ -23,8 +23,10 @@ from tests.measured.shaftline_bench import example_drivetrain, write_bench
 from tests.workflow.runs import ROOT, copy_repo, snakemake
 
 #: The perturbation written into the record (key path -> factor), 15-40 % each.
+#: (a stable bench: ×1.25 on the torque arm would push the load-side 27 Hz mode, 0.05 %
+#: damped in closed loop, below zero; the simulator refuses an unstable loop)
 PERTURB = {"drivetrain.disks.flywheel.inertia": 0.80, "drivetrain.shafts[2].stiffness": 1.35,
-           "drivetrain.mounts[0].stiffness": 1.25}
+           "drivetrain.mounts[0].stiffness": 0.75}
 #: Largest relative error of a fitted parameter [-]: the issue's 3 %.
 TOLERANCE = 0.03
 
