@@ -34,6 +34,7 @@ from gbpipe.model.frf import Pairing
 from gbpipe.model.frf_data import FrfData, welch_kernel
 from gbpipe.model.identifiability import log_jacobian
 from gbpipe.model.parameters import FreeParameters
+from gbpipe.model.stability import controller_path
 
 __all__ = ["FrfResiduals", "correlation_factor", "DELAY_UNIT", "MAX_KERNEL_STEPS"]
 
@@ -272,12 +273,9 @@ def _excited_motor(free: FreeParameters, data: FrfData,
     if motor.controller.type == "none":
         return None
     # the loop's gains are read from the prior: a free one would move the weight as well
-    for i, path in enumerate(free.paths):
-        theta = np.zeros(len(free.paths))
-        theta[i] = 0.1
-        c = next(m for m in bench_chain(free.config(theta)).motors
-                 if m.name == motor.name).controller
-        if (c.kp, c.ki) != (motor.controller.kp, motor.controller.ki):
+    loop = controller_path(free.cfg, motor)
+    for path in free.paths:
+        if path.startswith(loop + "."):
             raise ConfigError(path, f"a gain of motor {motor.name!r}, whose loop shapes the "
                                     "excitation of the Welch estimate fitted: free it on "
                                     "data without FrfData.excitation, or hold it")

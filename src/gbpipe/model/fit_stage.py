@@ -182,8 +182,8 @@ def nonparametric_data(identified: xr.Dataset, pairings: Sequence[Mapping[str, A
             log.info("%s: no coherent estimate in %s Hz, left out", p.name, list(band))
             continue
         g[~keep] = np.nan
-        sigma = np.where(keep[:, None, None], sigma_from_bounds(np.where(lo > 0, lo, 1.0),
-                                                                np.where(lo > 0, hi, 1.0)), 1.0)
+        sigma = np.ones(g.shape)        # where the FRF is NaN it weighs nothing
+        sigma[keep] = sigma_from_bounds(lo[keep], hi[keep])
         excitation = by_input.get(p.inputs[0]) if ni == 1 else None
         estimator = "reference" if q.get("reference") else "h1"
         out.append(FrfData(p, f, g, sigma, segment, excitation, estimator))

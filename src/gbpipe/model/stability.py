@@ -12,7 +12,7 @@ from gbpipe.model.assembly import bench_chain
 from gbpipe.model.chain import Motor
 from gbpipe.model.statespace import chain_plant, close_loops
 
-__all__ = ["check_stability", "is_unstable"]
+__all__ = ["check_stability", "is_unstable", "controller_path"]
 
 
 def is_unstable(A: np.ndarray, n_integrators: int = 1) -> bool:
@@ -43,8 +43,9 @@ def _null_dimension(A: np.ndarray) -> int:
     return int(np.sum(s <= 1e-12 * s.max()))
 
 
-def _controller_path(cfg: Mapping[str, Any], m: Motor) -> str:
-    """Key path of a motor's controller in the config."""
+def controller_path(cfg: Mapping[str, Any], m: Motor) -> str:
+    """Key path of a motor's controller in the config (``drivetrain.motors[i].controller``,
+    or the paper bench's ``bench.speed_controller`` / ``bench.torque_controller``)."""
     if cfg.get("drivetrain"):
         return f"drivetrain.motors[{m.index}].controller"
     return f"bench.{m.controller.type}_controller"
@@ -80,7 +81,7 @@ def check_stability(cfg: Mapping[str, Any]) -> None:
     trials = {}
     for m in motors:
         kp, ki = m.controller.kp, m.controller.ki
-        path = _controller_path(cfg, m)
+        path = controller_path(cfg, m)
         lower = kp * 0.01 if m.controller.type == "speed" else 0.0
         trials[f"{path}.kp"] = {m.name: (lower, ki)}
         trials[f"{path}.ki"] = {m.name: (kp, 0.0)}
