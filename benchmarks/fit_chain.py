@@ -43,6 +43,7 @@ from __future__ import annotations
 import argparse
 import sys
 import time
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -51,7 +52,6 @@ from gbpipe.config import load
 from gbpipe.model.fit import fit_parameters
 from gbpipe.model.fit_modes import ModalResiduals, modal_data_of
 from gbpipe.model.fit_residuals import FrfResiduals
-from gbpipe.model.frf_data import FrfData
 from gbpipe.model.keypath import get_value
 from gbpipe.model.parameters import FreeParameters
 
@@ -99,9 +99,9 @@ def main() -> None:
         true = np.array([get_value(truth, p) for p in free])
         data = record_data(cfg, truth, seed, args.duration, FS, not args.h1, args.oversample)
         if args.no_window:
-            data = [FrfData(d.pairing, d.f_hz, d.frf, d.sigma) for d in data]
+            data = [replace(d, segment=None, excitation=None) for d in data]
         elif args.flat_input:
-            data = [FrfData(d.pairing, d.f_hz, d.frf, d.sigma, d.segment) for d in data]
+            data = [replace(d, excitation=None) for d in data]
         r = FrfResiduals(fp, data, False).residual(np.log(factors))
         t = time.process_time()
         res = fit_parameters(cfg, data, free, seed=seed, **common)
