@@ -43,14 +43,15 @@ def _fit_prior():
     return {k: prior[k] for k in ("gearbox", "bench", "drivetrain") if prior.get(k)}
 
 
-#: What rule `fit` fits, by fit.data (its message)
+#: What rule `fit` fits, by fit.data (its message; no param, which would be a rerun trigger)
 _FIT_DATA = {"frf": "the identified FRFs", "nonparametric": "the Welch FRF estimates",
              "modes": "the modal table"}
 
 
 rule fit:
     message:
-        "Fit {params.n_free} physical parameters to {params.data} of {wildcards.record}"
+        f"Fit {{params.n_free}} physical parameters to {_FIT_DATA[config['fit']['data']]} of "
+        "{wildcards.record}"
     wildcard_constraints:
         record="|".join(config["fit"]["records"]) or "no_fit_records",
     input:
@@ -61,7 +62,6 @@ rule fit:
              "segment": config["identify"]["nonparametric"]["segment"]},
         prior=_fit_prior(),
         n_free=len(config["fit"]["free"]),
-        data=_FIT_DATA[config["fit"]["data"]],
     output:
         nc=f"{RESULTS}/fit/{{record}}.nc",
         overlay=f"{RESULTS}/fit/{{record}}.yaml",
