@@ -1,4 +1,4 @@
-"""Benchmark: the physical-parameter fit (gbpipe.model.fit) — runtime, recovery, coverage.
+"""Benchmark: the physical-parameter fit (gbpipe.fit.estimate) — runtime, recovery, coverage.
 
 Truth: the default bench (config/config.yaml) with six parameters perturbed by ±30 %
 (stiffness of stages 2 and 3, inertia of stage 1, housing mount stiffness, coupling
@@ -29,12 +29,12 @@ from pathlib import Path
 import numpy as np
 
 from gbpipe.config import load
+from gbpipe.fit.estimate import fit_parameters
+from gbpipe.fit.frf_data import FrfData
+from gbpipe.fit.keypath import get_value, with_values
 from gbpipe.lti import frf
 from gbpipe.model import truth_model
-from gbpipe.model.fit import fit_parameters
 from gbpipe.model.frf import Pairing, pairing_frf
-from gbpipe.model.frf_data import FrfData
-from gbpipe.model.keypath import get_value, with_values
 
 CONFIG = Path(__file__).resolve().parents[1] / "config" / "config.yaml"
 FIVE = ["gearbox.stiffness[1]", "gearbox.stiffness[2]", "gearbox.inertia[0]",

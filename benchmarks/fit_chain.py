@@ -10,7 +10,7 @@ record (:func:`gbpipe.identify.nonparametric_reference`: the closed-loop estimat
 the excitation, which the record carries as its reference, with its 95 % magnitude
 bounds, kept where coherent, as the identify stage computes it for a bench record) of
 the example's pairings is fitted from the nominal chain
-(:func:`gbpipe.model.fit.fit_parameters`, sigma from the bounds, the model seen through
+(:func:`gbpipe.fit.estimate.fit_parameters`, sigma from the bounds, the model seen through
 the estimate's Hann window, ``FrfData.segment``, as a ratio of smoothed spectra whose
 input spectrum the drive motor's loop shapes, ``FrfData.excitation``; no delay: the
 record's zero-order hold is removed from the data as its known response, a half-sample
@@ -20,7 +20,7 @@ without an interval does not), the chi-square verdict, the cost ratio to the tru
 
 Then the same from a modal table alone: the open-loop modes of the perturbed chain below
 ``--f-modes`` Hz, drawn with 0.5 % frequency and 10 % damping spread around the truth
-(:func:`gbpipe.model.fit_modes.modal_data_of`, a synthetic table, not the stabilization
+(:func:`gbpipe.fit.modes.modal_data_of`, a synthetic table, not the stabilization
 diagram's): errors of the identified parameters and the combinations named.
 
 Each cause of yesterday's misses can be put back: ``--h1`` (H1 instead of the
@@ -49,11 +49,11 @@ from pathlib import Path
 import numpy as np
 
 from gbpipe.config import load
-from gbpipe.model.fit import fit_parameters
-from gbpipe.model.fit_modes import ModalResiduals, modal_data_of
-from gbpipe.model.fit_residuals import FrfResiduals
-from gbpipe.model.keypath import get_value
-from gbpipe.model.parameters import FreeParameters
+from gbpipe.fit.estimate import fit_parameters
+from gbpipe.fit.keypath import get_value
+from gbpipe.fit.modes import ModalResiduals, modal_data_of
+from gbpipe.fit.parameters import FreeParameters
+from gbpipe.fit.residuals import FrfResiduals
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))

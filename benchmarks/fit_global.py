@@ -28,7 +28,7 @@ in it. ``--draws D`` adds D noise draws per set, each fitted locally from the se
 reports the coverage over all of them.
 
 With ``--modes`` the data are each set's open-loop modes below 350 Hz instead (0.5 %
-frequency and 10 % damping spread, drawn around the truth; ``gbpipe.model.fit_modes``).
+frequency and 10 % damping spread, drawn around the truth; ``gbpipe.fit.modes``).
 
 With ``--chain`` the data come through the real chain: per set one workflow run
 (:func:`fit_study.run_workflow`, ``config/ci.yaml`` with the perturbed bench, the
@@ -54,15 +54,15 @@ from scipy.optimize import minimize_scalar
 
 from gbpipe import io
 from gbpipe.config import load
-from gbpipe.model.fit import FitResult, fit_parameters
-from gbpipe.model.fit_modes import ModalResiduals, modal_data_of
-from gbpipe.model.fit_residuals import DELAY_UNIT, FrfResiduals
-from gbpipe.model.fit_stage import fit_data
+from gbpipe.fit.estimate import FitResult, fit_parameters
+from gbpipe.fit.frf_data import FrfData
+from gbpipe.fit.identifiability import Z95
+from gbpipe.fit.keypath import get_value, overlay, with_values
+from gbpipe.fit.modes import ModalResiduals, modal_data_of
+from gbpipe.fit.parameters import FreeParameters
+from gbpipe.fit.residuals import DELAY_UNIT, FrfResiduals
+from gbpipe.fit.stage import fit_data
 from gbpipe.model.frf import Pairing, pairing_frf
-from gbpipe.model.frf_data import FrfData
-from gbpipe.model.identifiability import Z95
-from gbpipe.model.keypath import get_value, overlay, with_values
-from gbpipe.model.parameters import FreeParameters
 
 ROOT = Path(__file__).resolve().parents[1]
 CONFIG = ROOT / "config" / "config.yaml"

@@ -27,7 +27,7 @@ import yaml
 
 from gbpipe import io
 from gbpipe.config import load
-from gbpipe.model.keypath import get_value
+from gbpipe.fit.keypath import get_value
 
 ROOT = Path(__file__).resolve().parents[1]
 STUDY = ROOT / "config" / "examples" / "fit_perturbed.yaml"

@@ -1,4 +1,4 @@
-"""The global stage of the physical fit (gbpipe.model.fit_search) from a start far from
+"""The global stage of the physical fit (gbpipe.fit.search) from a start far from
 the truth: differential evolution over the bounds finds the minimum; and two starts that
 agree in a wrong basin do not end the search."""
 
@@ -9,12 +9,12 @@ from pathlib import Path
 import numpy as np
 
 from gbpipe.config import load
-from gbpipe.model.fit import fit_parameters
-from gbpipe.model.fit_residuals import FrfResiduals
+from gbpipe.fit.estimate import fit_parameters
+from gbpipe.fit.frf_data import FrfData
+from gbpipe.fit.keypath import get_value, with_values
+from gbpipe.fit.parameters import FreeParameters
+from gbpipe.fit.residuals import FrfResiduals
 from gbpipe.model.frf import Pairing, pairing_frf
-from gbpipe.model.frf_data import FrfData
-from gbpipe.model.keypath import get_value, with_values
-from gbpipe.model.parameters import FreeParameters
 from tests.measured.shaftline_bench import perturbed, record_data
 
 FREE = ["gearbox.housing.stiffness", "bench.coupling.stiffness", "gearbox.stiffness[2]",

@@ -1,4 +1,4 @@
-"""The chi-square goodness-of-fit test (gbpipe.model.goodness) against its closed form,
+"""The chi-square goodness-of-fit test (gbpipe.fit.goodness) against its closed form,
 and a fit with a wrong stiffness that must say it is poor."""
 
 from __future__ import annotations
@@ -7,12 +7,12 @@ import numpy as np
 from scipy.signal import lfilter
 from scipy.stats import binom
 
-from gbpipe.model.fit import fit_parameters
-from gbpipe.model.fit_residuals import correlation_factor
+from gbpipe.fit.estimate import fit_parameters
+from gbpipe.fit.frf_data import FrfData
+from gbpipe.fit.goodness import chi_square_test
+from gbpipe.fit.keypath import get_value, with_values
+from gbpipe.fit.residuals import correlation_factor
 from gbpipe.model.frf import Pairing, pairing_frf
-from gbpipe.model.frf_data import FrfData
-from gbpipe.model.goodness import chi_square_test
-from gbpipe.model.keypath import get_value, with_values
 
 ALPHA = 0.01
 

@@ -16,14 +16,14 @@ from scipy.stats import chi2
 from gbpipe import lti
 from gbpipe.config import load
 from gbpipe.errors import ConfigError, DataError
+from gbpipe.fit.estimate import fit_parameters
+from gbpipe.fit.frf_data import FrfData, welch_kernel
+from gbpipe.fit.goodness import chi_square_test
+from gbpipe.fit.keypath import get_value, with_values
+from gbpipe.fit.parameters import FreeParameters
+from gbpipe.fit.residuals import FrfResiduals, correlation_factor
 from gbpipe.model.assembly import bench_ss
-from gbpipe.model.fit import fit_parameters
-from gbpipe.model.fit_residuals import FrfResiduals, correlation_factor
 from gbpipe.model.frf import Pairing, pairing_frf
-from gbpipe.model.frf_data import FrfData, welch_kernel
-from gbpipe.model.goodness import chi_square_test
-from gbpipe.model.keypath import get_value, with_values
-from gbpipe.model.parameters import FreeParameters
 from tests.measured.shaftline_bench import perturbed, record_data
 
 ROOT = Path(__file__).resolve().parents[2]

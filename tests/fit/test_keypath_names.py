@@ -7,8 +7,8 @@ import copy
 
 import pytest
 
-from gbpipe.model.fit_report import parameter_unit
-from gbpipe.model.keypath import get_value, overlay, with_values
+from gbpipe.fit.keypath import get_value, overlay, with_values
+from gbpipe.fit.report import parameter_unit
 from tests.pint_units import udunits_quantity as q
 
 

@@ -1,4 +1,4 @@
-"""Fitting the physical parameters to a modal table (gbpipe.model.fit_modes) of the paper
+"""Fitting the physical parameters to a modal table (gbpipe.fit.modes) of the paper
 bench: frequencies and damping ratios of a perturbed truth with their spreads."""
 
 from __future__ import annotations
@@ -9,10 +9,10 @@ import numpy as np
 import pytest
 
 from gbpipe.errors import ConfigError, DataError
+from gbpipe.fit.estimate import fit_parameters
+from gbpipe.fit.keypath import get_value, with_values
+from gbpipe.fit.modes import match_modes, modal_data_of, read_modes_table
 from gbpipe.model.assembly import bench_ss
-from gbpipe.model.fit import fit_parameters
-from gbpipe.model.fit_modes import match_modes, modal_data_of, read_modes_table
-from gbpipe.model.keypath import get_value, with_values
 from gbpipe.model.truth import true_modes
 
 FREE = ["gearbox.housing.stiffness", "bench.coupling.stiffness", "gearbox.stiffness[2]",

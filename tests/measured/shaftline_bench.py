@@ -34,12 +34,12 @@ from scipy import linalg, signal
 
 from gbpipe.config.loader import read_yaml
 from gbpipe.errors import UnstableGain
+from gbpipe.fit.frf_data import FrfData, sigma_from_bounds
+from gbpipe.fit.keypath import get_value, with_values
 from gbpipe.identify import nonparametric_reference
 from gbpipe.lti import lsim
 from gbpipe.model.assembly import bench_chain, bench_ss
 from gbpipe.model.frf import Pairing
-from gbpipe.model.frf_data import FrfData, sigma_from_bounds
-from gbpipe.model.keypath import get_value, with_values
 from gbpipe.model.stability import check_stability
 from tests.measured.bench_campaign import EPOCH, tacho_voltage
 

@@ -6,10 +6,10 @@ import numpy as np
 import pytest
 
 from gbpipe.errors import ConfigError
+from gbpipe.fit.keypath import get_value, overlay, with_values
 from gbpipe.lti import frf
 from gbpipe.model import gearbox_ss, truth_model
 from gbpipe.model.frf import Pairing, mechanical_frf, pairing_frf
-from gbpipe.model.keypath import get_value, overlay, with_values
 
 F = np.geomspace(5.0, 350.0, 240)
 

@@ -18,9 +18,9 @@ import pytest
 from gbpipe import model
 from gbpipe.config import merge, validate
 from gbpipe.errors import ConfigError
+from gbpipe.fit.keypath import get_value, with_values
 from gbpipe.lti import frf
 from gbpipe.model.chain import build_chain
-from gbpipe.model.keypath import get_value, with_values
 from gbpipe.model.opentorsion_io import (
     expand,
     from_assembly,

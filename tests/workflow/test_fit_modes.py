@@ -9,8 +9,8 @@ import yaml
 
 from gbpipe import io
 from gbpipe.config import fit_prior, load
-from gbpipe.model.fit_modes import modal_data_of
-from gbpipe.model.keypath import get_value, with_values
+from gbpipe.fit.keypath import get_value, with_values
+from gbpipe.fit.modes import modal_data_of
 from tests.conftest import ROOT
 from tests.workflow.runs import copy_repo, snakemake
 

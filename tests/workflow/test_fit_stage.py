@@ -12,7 +12,7 @@ import yaml
 
 from gbpipe import io
 from gbpipe.config import load
-from gbpipe.model.keypath import get_value
+from gbpipe.fit.keypath import get_value
 from tests.conftest import ROOT
 from tests.workflow.runs import copy_repo, snakemake
 

@@ -17,7 +17,7 @@ import pytest
 from gbpipe import io
 from gbpipe.config import load
 from gbpipe.errors import ConfigError
-from gbpipe.model.keypath import get_value
+from gbpipe.fit.keypath import get_value
 from gbpipe.model.stage import model_datasets
 from tests.measured.shaftline_bench import example_drivetrain, write_bench
 from tests.workflow.runs import ROOT, copy_repo, snakemake

@@ -6,7 +6,7 @@ overlay of the fitted values (docs/fit.md)."""
 import yaml
 
 from gbpipe import io
-from gbpipe.model.fit_stage import fit_record
+from gbpipe.fit import fit_record
 
 snakemake = globals()["snakemake"]
 log = io.setup_log(snakemake.log[0])

@@ -16,8 +16,8 @@ from typing import Any
 
 from gbpipe.config.schema_validation import suggest
 from gbpipe.errors import ConfigError
+from gbpipe.fit.keypath import get_value
 from gbpipe.model import bench_ss
-from gbpipe.model.keypath import get_value
 
 __all__ = ["check_fit", "model_signal"]
 

@@ -22,18 +22,6 @@ model_datasets(cfg, truth_cfg)
     The gearbox, bench and truth datasets of the model stage (``results/model/*.nc``).
 Pairing, pairing_frf
     Batched FRFs of the identification pairings (a fitting loop's model evaluation).
-FrfData, fit_parameters, FitResult
-    Fit config parameters (key paths such as ``"gearbox.stiffness[1]"``) to FRFs, with
-    95 % intervals and what the data cannot separate (docs/fit.md).
-analyse, design_outputs, Identifiability
-    Identifiability from the Jacobian; which added output would separate the parameters.
-jackknife_intervals
-    95 % intervals from a delete-one-band jackknife over frequency (model error).
-fit_data, fit_dataset, parameter_unit, assessable_band
-    The fit stage: identified FRFs to fit (band, predicted identifiable band, weights),
-    and the stage's dataset (rule ``fit``).
-ModalData, read_modes_table, modal_fit_dataset
-    Fit to a modal table (identified frequencies and damping ratios with spreads).
 
 ``control.StateSpace`` forms: ``from gbpipe.model.control_models import gearbox, bench``.
 FRFs and modes of any state space: :func:`gbpipe.lti.frf`, :func:`gbpipe.lti.modes`.
@@ -45,14 +33,7 @@ from __future__ import annotations
 from gbpipe.model.assembly import bench_chain, bench_ss, gearbox_ss
 from gbpipe.model.chain import Chain, build_chain
 from gbpipe.model.drivetrain import bench_mechanism, gearbox_mechanism, paper_drivetrain
-from gbpipe.model.fit import FitResult, fit_parameters
-from gbpipe.model.fit_bands import jackknife_intervals
-from gbpipe.model.fit_modes import ModalData, read_modes_table
-from gbpipe.model.fit_report import modal_fit_dataset, parameter_unit
-from gbpipe.model.fit_stage import assessable_band, fit_data, fit_dataset
 from gbpipe.model.frf import Pairing, pairing_frf
-from gbpipe.model.frf_data import FrfData, sigma_from_bounds, sigma_from_coherence
-from gbpipe.model.identifiability import Identifiability, analyse, design_outputs
 from gbpipe.model.mechanics import Body, Mechanism, Spring
 from gbpipe.model.stability import check_stability
 from gbpipe.model.stage import model_datasets
@@ -67,9 +48,5 @@ __all__ = [
     "gearbox_ss", "bench_ss", "check_stability", "truth_model", "true_modes",
     "truth_dataset", "TORQUES", "Mechanism", "Body", "Spring", "gearbox_mechanism",
     "bench_mechanism", "build_chain", "Chain", "paper_drivetrain", "bench_chain",
-    "model_datasets", "Pairing", "pairing_frf", "FrfData",
-    "sigma_from_coherence", "sigma_from_bounds", "fit_parameters", "FitResult",
-    "Identifiability", "analyse", "design_outputs", "fit_data", "fit_dataset",
-    "parameter_unit", "jackknife_intervals", "assessable_band", "ModalData",
-    "read_modes_table", "modal_fit_dataset",
+    "model_datasets", "Pairing", "pairing_frf",
 ]

@@ -150,7 +150,7 @@ def welch_kernel(segment: float, steps: int) -> tuple[np.ndarray, np.ndarray]:
     ``K`` grows as ``exp(2π γ T)`` off the axis, so about ``1 + ln(1/ε) / (2π γ T)`` steps
     reach a relative error ε at that mode's peak (8 steps: 2.4e-5 Np from the ±3/T
     integral at 0.8 % damping, 29 Hz, 1 s; the truncation adds 2.5e-4 Np).
-    :class:`gbpipe.model.fit_residuals.FrfResiduals` doubles ``steps`` until the model's
+    :class:`gbpipe.fit.residuals.FrfResiduals` doubles ``steps`` until the model's
     expected estimate no longer moves against the data's scatter. A three-node rule
     matching the kernel's moments 1, ``1/(3T²)``, ``1/(3T⁴)`` is off by 0.6 Np there.
 

@@ -2,16 +2,16 @@
 
 Residuals: for every FRF value, ``ln|G_model/G_data|`` [Np] and the wrapped phase
 ``∠(G_model/G_data)`` [rad], each divided by the value's standard deviation
-(:mod:`gbpipe.model.fit_residuals`); or, from a modal table, each mode's frequency and
-damping error over its spread (:mod:`gbpipe.model.fit_modes`). Unknowns:
-``θ = ln(p / p_prior)`` within bounds (:class:`gbpipe.model.parameters.FreeParameters`).
+(:mod:`gbpipe.fit.residuals`); or, from a modal table, each mode's frequency and
+damping error over its spread (:mod:`gbpipe.fit.modes`). Unknowns:
+``θ = ln(p / p_prior)`` within bounds (:class:`gbpipe.fit.parameters.FreeParameters`).
 Resonance fitting has local minima, so a global stage (Latin-hypercube starts, and
-differential evolution unless a start fits exact data to round-off: :mod:`gbpipe.model.fit_search`)
+differential evolution unless a start fits exact data to round-off: :mod:`gbpipe.fit.search`)
 precedes the local least squares. At the best optimum the Jacobian decides what the data
-determine (:mod:`gbpipe.model.identifiability`): a parameter of an undetermined direction
+determine (:mod:`gbpipe.fit.identifiability`): a parameter of an undetermined direction
 is fixed at its prior and the others are fitted again, so the model still reproduces the
 data and no undetermined number is reported as fitted. A chi-square test of the final
-residuals against the data's bounds (:mod:`gbpipe.model.goodness`) says whether the model
+residuals against the data's bounds (:mod:`gbpipe.fit.goodness`) says whether the model
 explains the data at all: a determined parameter of a fit that fails it is ``poor``, never
 ``identified``.
 
@@ -32,14 +32,14 @@ from typing import Any
 import numpy as np
 
 from gbpipe.errors import ConfigError, DataError
-from gbpipe.model.fit_modes import ModalData, ModalResiduals, ModeTable
-from gbpipe.model.fit_residuals import DELAY_UNIT, FrfResiduals, correlation_factor
-from gbpipe.model.fit_search import SEARCHES, evolution_run, local_run, needs_evolution, start_runs
-from gbpipe.model.frf_data import FrfData
-from gbpipe.model.goodness import DEFAULT_ALPHA, POOR, UNTESTED, Goodness, chi_square_test
-from gbpipe.model.identifiability import Z95, Identifiability, analyse, describe_direction
-from gbpipe.model.keypath import overlay
-from gbpipe.model.parameters import DEFAULT_FACTOR, FreeParameters
+from gbpipe.fit.frf_data import FrfData
+from gbpipe.fit.goodness import DEFAULT_ALPHA, POOR, UNTESTED, Goodness, chi_square_test
+from gbpipe.fit.identifiability import Z95, Identifiability, analyse, describe_direction
+from gbpipe.fit.keypath import overlay
+from gbpipe.fit.modes import ModalData, ModalResiduals, ModeTable
+from gbpipe.fit.parameters import DEFAULT_FACTOR, FreeParameters
+from gbpipe.fit.residuals import DELAY_UNIT, FrfResiduals, correlation_factor
+from gbpipe.fit.search import SEARCHES, evolution_run, local_run, needs_evolution, start_runs
 
 __all__ = ["FitResult", "fit_parameters", "correlation_factor", "DELAY_NAME",
            "DEFAULT_ACCURACY"]
@@ -106,9 +106,9 @@ class FitResult:
         The configuration with the fitted values.
     interval_method : str
         ``fisher`` (from the Jacobian), or ``jackknife over n bands`` when
-        :func:`gbpipe.model.fit_bands.jackknife_intervals` widened them.
+        :func:`gbpipe.fit.bands.jackknife_intervals` widened them.
     goodness : Goodness
-        The chi-square test of the final residuals (:mod:`gbpipe.model.goodness`).
+        The chi-square test of the final residuals (:mod:`gbpipe.fit.goodness`).
     search : str
         The global stages run: ``starts`` or ``starts + evolution``.
     modes : ModeTable or None
@@ -230,7 +230,7 @@ def fit_parameters(cfg: Mapping[str, Any], data: Sequence[FrfData] | ModalData,
         Validated configuration: the prior, and the start of the fit.
     data : sequence of FrfData, or ModalData
         The FRFs (one per pairing; grids may differ; either all carry ``sigma`` or none),
-        or identified modes with their spreads (:class:`gbpipe.model.fit_modes.ModalData`).
+        or identified modes with their spreads (:class:`gbpipe.fit.modes.ModalData`).
     free : sequence of str
         Key paths of the free numbers, e.g. ``"gearbox.stiffness[1]"``,
         ``"gearbox.housing.stiffness"``, ``"bench.coupling.stiffness"``.
@@ -252,7 +252,7 @@ def fit_parameters(cfg: Mapping[str, Any], data: Sequence[FrfData] | ModalData,
         estimate's scatter, not its bias, and intervals widen when the residuals exceed
         it (the Birge ratio).
     rtol, max_sd, involvement : float
-        Identifiability thresholds of :func:`gbpipe.model.identifiability.analyse`: a
+        Identifiability thresholds of :func:`gbpipe.fit.identifiability.analyse`: a
         direction below them is undetermined and one of its parameters held at its prior.
     accuracy : float, default 0.05
         Largest relative half-width of an identified parameter's 95 % interval [1]. A
@@ -267,11 +267,11 @@ def fit_parameters(cfg: Mapping[str, Any], data: Sequence[FrfData] | ModalData,
     max_delay : float, default 1e-3
         Bound of the delay [s]: ``-max_delay … max_delay``.
     search : {"auto", "starts", "evolution"}, default "auto"
-        Global stage (:data:`gbpipe.model.fit_search.SEARCHES`): the starts; the starts,
+        Global stage (:data:`gbpipe.fit.search.SEARCHES`): the starts; the starts,
         then differential evolution unless the best start fits to round-off; or both
         always.
     alpha : float, default 0.01
-        Level of the goodness-of-fit test (:func:`gbpipe.model.goodness.chi_square_test`).
+        Level of the goodness-of-fit test (:func:`gbpipe.fit.goodness.chi_square_test`).
 
     Returns
     -------

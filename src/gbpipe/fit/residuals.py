@@ -2,18 +2,18 @@
 
 For every FRF value the residual is ``ln(G_model / G_data)``: its real part the
 log-magnitude error [Np], its imaginary part the wrapped phase error [rad], each divided
-by the value's standard deviation (:class:`gbpipe.model.frf_data.FrfData`). For a Welch
+by the value's standard deviation (:class:`gbpipe.fit.frf_data.FrfData`). For a Welch
 estimate (``FrfData.segment`` given) the model is its expected estimate, the model on the
-window kernel's nodes weighted (:func:`gbpipe.model.frf_data.welch_kernel`, fine enough
+window kernel's nodes weighted (:func:`gbpipe.fit.frf_data.welch_kernel`, fine enough
 that the prior model's expected estimate has settled against the data's scatter) and,
 when the record's excitation is named (``FrfData.excitation``), weighted too by the
 input's spectrum that the excited motor's loop shapes: ``K⊛(G·P) / K⊛P``. The unknowns
-are ``θ = ln(p / p_prior)`` (:class:`gbpipe.model.parameters.FreeParameters`), plus an
+are ``θ = ln(p / p_prior)`` (:class:`gbpipe.fit.parameters.FreeParameters`), plus an
 optional input-to-output delay in ms.
 
-A residual set (this one, or the modal table's of :mod:`gbpipe.model.fit_modes`) offers
-what :func:`gbpipe.model.fit.fit_parameters` and the goodness-of-fit test
-(:mod:`gbpipe.model.goodness`) use: ``residual(θ)``, ``jacobian(θ)``, ``sequences``
+A residual set (this one, or the modal table's of :mod:`gbpipe.fit.modes`) offers
+what :func:`gbpipe.fit.estimate.fit_parameters` and the goodness-of-fit test
+(:mod:`gbpipe.fit.goodness`) use: ``residual(θ)``, ``jacobian(θ)``, ``sequences``
 (residuals that follow each other along frequency share a label), ``groups`` (the
 pairing or mode each residual belongs to), ``frequency`` [Hz] of each residual,
 ``has_sigma`` and ``n_evaluations``. See docs/fit.md.
@@ -28,12 +28,12 @@ from typing import Any
 import numpy as np
 
 from gbpipe.errors import ConfigError, DataError
+from gbpipe.fit.frf_data import FrfData, welch_kernel
+from gbpipe.fit.identifiability import log_jacobian
+from gbpipe.fit.parameters import FreeParameters
 from gbpipe.model.assembly import bench_chain
 from gbpipe.model.chain import Motor
 from gbpipe.model.frf import Pairing
-from gbpipe.model.frf_data import FrfData, welch_kernel
-from gbpipe.model.identifiability import log_jacobian
-from gbpipe.model.parameters import FreeParameters
 from gbpipe.model.stability import controller_path
 
 __all__ = ["FrfResiduals", "correlation_factor", "DELAY_UNIT", "MAX_KERNEL_STEPS"]
@@ -59,7 +59,7 @@ class FrfResiduals:
         Add one unknown: an input-to-output delay [ms] applied to every model FRF.
     steps : sequence of array_like of int, optional
         One entry per data item: window-kernel nodes per resolution
-        (:func:`gbpipe.model.frf_data.welch_kernel`) at each of its frequencies (ignored
+        (:func:`gbpipe.fit.frf_data.welch_kernel`) at each of its frequencies (ignored
         without a Welch segment). Default: 2, doubled at the frequencies where the prior
         model's expected estimate still moves by more than a tenth of the data's sigma
         (1e-3 without sigma) between ``m`` and ``2m`` nodes, at most

@@ -1,4 +1,4 @@
-"""Physical-parameter fit (gbpipe.model.fit) on FRFs simulated from a perturbed bench."""
+"""Physical-parameter fit (gbpipe.fit.estimate) on FRFs simulated from a perturbed bench."""
 
 from __future__ import annotations
 
@@ -6,10 +6,11 @@ import numpy as np
 import pytest
 
 from gbpipe.errors import ConfigError, DataError
-from gbpipe.model.fit import fit_parameters
+from gbpipe.fit import jackknife_intervals
+from gbpipe.fit.estimate import fit_parameters
+from gbpipe.fit.frf_data import FrfData
+from gbpipe.fit.keypath import get_value, parse_path, with_values
 from gbpipe.model.frf import Pairing, pairing_frf
-from gbpipe.model.frf_data import FrfData
-from gbpipe.model.keypath import get_value, parse_path, with_values
 
 # the issue's six: stiffness of stages 2 and 3, inertia of stage 1, housing mount
 # stiffness, coupling stiffness, gear damping (unused by the rigid-gear model)
@@ -140,7 +141,7 @@ def test_correlation_factor_is_the_long_run_variance_ratio():
     long-run to plain variance ratio (9 for a = 0.8), pooled over independent sequences."""
     from scipy.signal import lfilter
 
-    from gbpipe.model.fit import correlation_factor
+    from gbpipe.fit.estimate import correlation_factor
     rng = np.random.default_rng(0)
     labels = np.repeat(np.arange(40), 2000)
     white = rng.standard_normal(labels.size)
@@ -154,7 +155,6 @@ def test_band_jackknife_widens_intervals_for_model_error(cfg):
     """Data from a bench whose LSS shaft is 20 % stiffer than the model's, a parameter
     left fixed: the model error is not scatter, so the Fisher intervals miss truths that
     the delete-one-band jackknife's (never narrower) cover."""
-    from gbpipe.model import jackknife_intervals
     truth = with_values(_truth(cfg), {"bench.lss_shaft.stiffness": 3.6e8})
     pairings, f = _pairings(cfg), np.geomspace(5.0, 350.0, 120)
     data = [FrfData(p, f, g) for p, g in zip(pairings, pairing_frf(truth, pairings, f),

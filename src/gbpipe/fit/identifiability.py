@@ -25,8 +25,8 @@ from typing import Any
 import numpy as np
 from scipy.stats import norm
 
+from gbpipe.fit.parameters import FreeParameters
 from gbpipe.model.frf import Pairing
-from gbpipe.model.parameters import FreeParameters
 
 __all__ = ["Identifiability", "log_jacobian", "analyse", "describe_direction",
            "design_outputs", "Z95", "JACOBIAN_STEP"]

@@ -5,7 +5,7 @@ leaves ``χ² = Σ r²`` near its degrees of freedom. Residuals of FRF values ar
 along frequency (a model error is smooth; so is what a finite-order identified model
 leaves), so ``N`` residuals carry the information of only
 ``N_eff = N / c`` independent ones, ``c`` the correlation factor the intervals use
-(:func:`gbpipe.model.fit_residuals.correlation_factor`). The test compares ``χ²/c`` with
+(:func:`gbpipe.fit.residuals.correlation_factor`). The test compares ``χ²/c`` with
 the chi-square distribution of ``N_eff − n`` degrees of freedom (``n`` fitted unknowns;
 Satterthwaite's scaled chi-square). A fit whose ``p`` falls below the level ``alpha`` is
 ``poor``: the data's bounds do not cover what the model leaves, so its intervals (which

@@ -15,7 +15,7 @@ global stages, over the box of the log-parameters ``θ = ln(p / p_prior)``:
   local run. It covers the box where a few starts may all fall into one wrong basin, at
   about 1500 model evaluations for six parameters.
 
-:func:`gbpipe.model.fit.fit_parameters` runs the starts and, with ``search="auto"``,
+:func:`gbpipe.fit.estimate.fit_parameters` runs the starts and, with ``search="auto"``,
 the evolution too unless the best start fits to round-off (exact data: nothing can beat
 a zero cost). Neither the agreement of starts nor a passed chi-square test tells a wrong
 basin from the right one (a wrong minimum a few chi-square spreads above the truth
@@ -61,7 +61,7 @@ def local_run(problem: Any, theta: np.ndarray, active: np.ndarray, lo: np.ndarra
     Parameters
     ----------
     problem : residual set
-        With ``residual(θ)`` (:mod:`gbpipe.model.fit_residuals`).
+        With ``residual(θ)`` (:mod:`gbpipe.fit.residuals`).
     theta : ndarray
         Start (all unknowns; the inactive ones are held).
     active : ndarray of bool

@@ -1,6 +1,6 @@
 """95 % intervals of a physical fit from a delete-one-band jackknife over frequency.
 
-The Fisher intervals of :func:`gbpipe.model.fit.fit_parameters` assume that the FRF's
+The Fisher intervals of :func:`gbpipe.fit.estimate.fit_parameters` assume that the FRF's
 errors are the scatter its bounds describe. An identified FRF from measured-like data
 also carries errors that are not scatter: what the harmonic removal took off near an
 order, the bias of a finite-order model near a mode. They differ from one part of the
@@ -25,9 +25,9 @@ import numpy as np
 from scipy.stats import t as student_t
 
 from gbpipe.errors import DataError
-from gbpipe.model.fit import FitResult, fit_parameters
-from gbpipe.model.frf_data import FrfData
-from gbpipe.model.goodness import band_of, log_bands
+from gbpipe.fit.estimate import FitResult, fit_parameters
+from gbpipe.fit.frf_data import FrfData
+from gbpipe.fit.goodness import band_of, log_bands
 
 __all__ = ["jackknife_intervals"]
 

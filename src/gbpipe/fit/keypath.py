@@ -1,6 +1,6 @@
 """Config key paths such as ``"gearbox.stiffness[1]"``: read one number, set several.
 
-The fit (:mod:`gbpipe.model.fit`) frees parameters named by the same key paths the config
+The fit (:mod:`gbpipe.fit.estimate`) frees parameters named by the same key paths the config
 errors print (:class:`gbpipe.errors.ConfigError`). The model layer may not import
 :mod:`gbpipe.config`, so the fit works on an already validated config dict and resolves
 the paths here: dots between mapping keys, ``[i]`` for a list index.

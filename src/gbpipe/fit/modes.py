@@ -2,7 +2,7 @@
 
 A user who has only identified modes (frequency [Hz], damping ratio [-], each with its
 spread, e.g. gbpipe's own ``tables/modes_measured.csv``) can fit the same parameters as
-from FRFs (:func:`gbpipe.model.fit.fit_parameters` with a :class:`ModalData`). The
+from FRFs (:func:`gbpipe.fit.estimate.fit_parameters` with a :class:`ModalData`). The
 residuals are ``(f_model − f_data)/σ_f`` and ``(ζ_model − ζ_data)/σ_ζ`` of each data mode
 and the model mode matched to it: the model's oscillatory modes in the band are paired
 with the data's by ``scipy.optimize.linear_sum_assignment`` on the distance in
@@ -24,11 +24,11 @@ import pandas as pd
 from scipy.optimize import linear_sum_assignment
 
 from gbpipe.errors import DataError
+from gbpipe.fit.identifiability import JACOBIAN_STEP
+from gbpipe.fit.parameters import FreeParameters
 from gbpipe.lti import modes
 from gbpipe.model.assembly import bench_ss
 from gbpipe.model.frf import Pairing
-from gbpipe.model.identifiability import JACOBIAN_STEP
-from gbpipe.model.parameters import FreeParameters
 from gbpipe.model.truth import truth_model
 
 __all__ = ["ModalData", "ModalResiduals", "ModeTable", "read_modes_table", "model_modes",

@@ -1,4 +1,4 @@
-"""The fit stage's library part (gbpipe.model.fit_stage): identified FRFs in, masked and
+"""The fit stage's library part (gbpipe.fit.stage): identified FRFs in, masked and
 weighted; the stage dataset out, with units on every variable."""
 
 from __future__ import annotations
@@ -8,8 +8,9 @@ import pytest
 import xarray as xr
 
 from gbpipe.errors import DataError
-from gbpipe.model import Pairing, fit_data, fit_dataset, fit_parameters, pairing_frf
-from gbpipe.model.keypath import get_value, with_values
+from gbpipe.fit import fit_data, fit_dataset, fit_parameters
+from gbpipe.fit.keypath import get_value, with_values
+from gbpipe.model import Pairing, pairing_frf
 
 FREE = ["gearbox.stiffness[1]", "gearbox.inertia[0]", "bench.coupling.stiffness"]
 

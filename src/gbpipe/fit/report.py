@@ -1,7 +1,7 @@
 """What every physical fit writes, whatever its data: parameters, goodness, modes.
 
 :func:`result_variables` gives the variables and coordinates of a
-:class:`gbpipe.model.fit.FitResult` common to the FRF fit (:func:`gbpipe.model.fit_dataset`)
+:class:`gbpipe.fit.estimate.FitResult` common to the FRF fit (:func:`gbpipe.model.fit_dataset`)
 and the modal-table fit (:func:`modal_fit_dataset`): estimates with their 95 % intervals
 and status, correlations, costs, the chi-square test and where its misfit sits (per
 pairing or mode, per frequency band), and for a modal table the mode-by-mode comparison
@@ -18,8 +18,8 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
-from gbpipe.model.fit import FitResult
-from gbpipe.model.keypath import parse_path
+from gbpipe.fit.estimate import FitResult
+from gbpipe.fit.keypath import parse_path
 
 __all__ = ["result_variables", "modal_fit_dataset", "parameter_unit", "cf_var"]
 
@@ -158,7 +158,7 @@ def modal_fit_dataset(result: FitResult, system: str, cfg: Mapping[str, Any]) ->
     Parameters
     ----------
     result : FitResult
-        A fit to :class:`gbpipe.model.fit_modes.ModalData` (with ``modes``).
+        A fit to :class:`gbpipe.fit.modes.ModalData` (with ``modes``).
     system : str
         Whose modes were fitted: ``plant`` or a pairing's name.
     cfg : mapping

@@ -5,11 +5,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from gbpipe.model.fit import fit_parameters
+from gbpipe.fit.estimate import fit_parameters
+from gbpipe.fit.frf_data import FrfData, sigma_from_bounds, sigma_from_coherence
+from gbpipe.fit.identifiability import analyse, describe_direction, design_outputs
+from gbpipe.fit.keypath import get_value, with_values
 from gbpipe.model.frf import Pairing, pairing_frf
-from gbpipe.model.frf_data import FrfData, sigma_from_bounds, sigma_from_coherence
-from gbpipe.model.identifiability import analyse, describe_direction, design_outputs
-from gbpipe.model.keypath import get_value, with_values
 
 # one output, 5–50 Hz: the housing-mount mode (27.8 Hz) shows its frequency, not the
 # housing inertia and mount stiffness apart; the coupling shapes the whole band

@@ -15,8 +15,8 @@ from typing import Any
 import numpy as np
 
 from gbpipe.errors import ConfigError
+from gbpipe.fit.keypath import get_value, with_values
 from gbpipe.model.frf import Pairing, pairing_frf
-from gbpipe.model.keypath import get_value, with_values
 
 __all__ = ["FreeParameters", "DEFAULT_FACTOR"]
 

@@ -19,16 +19,16 @@ import numpy as np
 import xarray as xr
 
 from gbpipe.errors import DataError
+from gbpipe.fit.bands import jackknife_intervals
+from gbpipe.fit.estimate import FitResult, fit_parameters
+from gbpipe.fit.frf_data import KERNEL_REACH, FrfData, sigma_from_bounds
+from gbpipe.fit.identifiability import design_outputs
+from gbpipe.fit.modes import read_modes_table
+from gbpipe.fit.report import cf_var, modal_fit_dataset, result_variables
 from gbpipe.lti import pad
 from gbpipe.model.assembly import bench_chain, bench_ss
 from gbpipe.model.chain import Motor
-from gbpipe.model.fit import FitResult, fit_parameters
-from gbpipe.model.fit_bands import jackknife_intervals
-from gbpipe.model.fit_modes import read_modes_table
-from gbpipe.model.fit_report import cf_var, modal_fit_dataset, result_variables
 from gbpipe.model.frf import MOTOR_INPUTS, Pairing, pairing_frf
-from gbpipe.model.frf_data import KERNEL_REACH, FrfData, sigma_from_bounds
-from gbpipe.model.identifiability import design_outputs
 
 __all__ = ["fit_data", "nonparametric_data", "fit_dataset", "fit_record", "assessable_band",
            "WEIGHTS", "CANDIDATE_OUTPUTS"]
