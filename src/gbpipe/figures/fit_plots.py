@@ -2,7 +2,7 @@
 prior and the fitted model, per fitted pairing (or, for a modal table, each mode's
 frequency error before and after), the goodness of fit, and the parameter table.
 
-Reads one ``fit`` stage dataset (:func:`gbpipe.model.fit_dataset`). See docs/fit.md.
+Reads one ``fit`` stage dataset (:func:`gbpipe.fit.fit_dataset`). See docs/fit.md.
 """
 
 from __future__ import annotations

@@ -1,7 +1,7 @@
 """What every physical fit writes, whatever its data: parameters, goodness, modes.
 
 :func:`result_variables` gives the variables and coordinates of a
-:class:`gbpipe.fit.estimate.FitResult` common to the FRF fit (:func:`gbpipe.model.fit_dataset`)
+:class:`gbpipe.fit.estimate.FitResult` common to the FRF fit (:func:`gbpipe.fit.fit_dataset`)
 and the modal-table fit (:func:`modal_fit_dataset`): estimates with their 95 % intervals
 and status, correlations, costs, the chi-square test and where its misfit sits (per
 pairing or mode, per frequency band), and for a modal table the mode-by-mode comparison
