@@ -39,9 +39,10 @@ def _case(base, rng):
         disk["inertia"] *= float(np.exp(rng.uniform(np.log(0.7), np.log(1.4))))
     for el in (*dt["shafts"], *dt["mounts"]):
         el["stiffness"] *= float(np.exp(rng.uniform(np.log(0.7), np.log(1.4))))
+    for m in dt["motors"]:
+        m["ripple"] = 0.0
     rpm, torque = float(rng.uniform(300, 3000)), float(rng.uniform(50, 600))
-    noise = {"motor_ripple": {m: {"broadband": 0.0} for m in ("drive", "load")},
-             "sensor": {"speed": 0.0, "torque": 0.0}}
+    noise = {"sensor": {"speed": 0.0, "torque": 0.0}}
     camp = {"nominal": {"speed_rpm": rpm, "torque": torque},
             "full_range": {"speed_rpm": 4000.0, "torque": 1500.0, "ramp_time": 30.0}}
     # the loops' gains stay the example's: a case whose loops go unstable is refused

@@ -53,10 +53,10 @@ def shaft_line(seed: int | None = None) -> dict:
              "damping_ratio": 0.02}],
         "gears": [{"name": "g1", "parent": "wheel", "child": "pinion", "teeth": list(TEETH)}],
         "motors": [
-            {"name": "driver", "node": "motor", "sign": 1, "torque_limit": 50.0,
+            {"name": "driver", "node": "motor", "sign": 1, "torque_limit": 50.0, "ripple": 1.0,
              "controller": {"type": "speed", "sensor": "speed_motor", "kp": 2.0, "ki": 20.0,
                             "setpoint_weight": 0.5}},
-            {"name": "load", "node": "load", "sign": -1,
+            {"name": "load", "node": "load", "sign": -1, "ripple": 1.0,
              "controller": {"type": "torque", "sensor": "torque_s4", "kp": 0.2, "ki": 5.0,
                             "feedforward": 1.0}}],
         "sensors": [{"name": "speed_motor", "speed": "motor"},
@@ -236,15 +236,13 @@ def test_constrained_twice_disconnected_and_floating_parts_are_named():
 
 def _campaign_keys() -> dict:
     """What a config with the shaft line needs beside it: the simulated campaign's keys on
-    the chain's own motors and sensors (the paper's pairings, TSA versions, pulsating
-    ripple and fit are refused on it, rightly)."""
+    the chain's own motors and sensors (the paper's pairings, TSA versions and fit are
+    refused on it, rightly; the motors carry their ripple)."""
     return {"fit": {"records": []},
             "identify": {"versions": ["clean", "raw"],
                          "pairings": [{"name": "Td_to_wm", "inputs": ["motor_torque_driver"],
                                        "outputs": ["speed_motor"]}],
-                         "best": {"pairing": "Td_to_wm", "version": "raw"}},
-            "noise": {"motor_ripple": {"driver": {"broadband": 1.0, "pulsating": []},
-                                       "load": {"broadband": 1.0}}}}
+                         "best": {"pairing": "Td_to_wm", "version": "raw"}}}
 
 
 def test_config_drivetrain_section_drives_the_models(cfg):

@@ -254,10 +254,11 @@ def test_config_section_from_a_file(cfg, tmp_path, monkeypatch):
     # a load motor on n3 (torque loop) and a drive motor on n0 (speed loop): what the
     # simulated campaign of a config with this drivetrain needs
     section = {"opentorsion": "asm.py:free_bench",
-               "motors": [{"name": "load", "node": "n3", "sign": -1, "controller": {
+               "motors": [{"name": "load", "node": "n3", "sign": -1, "ripple": 1.0,
+                           "controller": {
                    "type": "torque", "sensor": "torque_out", "kp": 0.1, "ki": 1.0,
                    "feedforward": 1.0}},
-                   {"name": "drive", "node": "n0", "controller": {
+                   {"name": "drive", "node": "n0", "ripple": 1.0, "controller": {
                        "type": "speed", "sensor": "speed_drive", "kp": 2.0, "ki": 10.0,
                        "setpoint_weight": 0.5}}],
                "sensors": [{"name": "speed_load", "speed": "n3"},
@@ -267,9 +268,7 @@ def test_config_section_from_a_file(cfg, tmp_path, monkeypatch):
                 "identify": {"versions": ["clean", "raw"],
                              "pairings": [{"name": "Td_to_wl", "inputs": ["motor_torque_drive"],
                                            "outputs": ["speed_load"]}],
-                             "best": {"pairing": "Td_to_wl", "version": "raw"}},
-                "noise": {"motor_ripple": {"drive": {"broadband": 1.0},
-                                           "load": {"broadband": 1.0}}}}
+                             "best": {"pairing": "Td_to_wl", "version": "raw"}}}
     custom = validate(merge(cfg, {"drivetrain": section, **campaign}))
     # the file's other assembly grounds the drive disk (Disk k): no steady rotation to
     # start a simulated record from, refused at load with the element

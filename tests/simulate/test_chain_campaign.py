@@ -34,9 +34,10 @@ def _ratio(cfg) -> float:
 def _quiet(cfg, **over):
     """The config with no ripple and no sensor noise (and ``over`` merged)."""
     base = cfg.explicit() if hasattr(cfg, "explicit") else copy.deepcopy(dict(cfg))
-    noise = {"motor_ripple": {m: {"broadband": 0.0} for m in ("drive", "load")},
-             "sensor": {"speed": 0.0, "torque": 0.0}}
-    return validate(merge(base, {"noise": noise, **over}), check_stability=False)
+    motors = [{**m, "ripple": 0.0} for m in base["drivetrain"]["motors"]]
+    noise = {"sensor": {"speed": 0.0, "torque": 0.0}}
+    return validate(merge(base, {"noise": noise, "drivetrain": {"motors": motors}, **over}),
+                    check_stability=False)
 
 
 def test_steady_state_and_statics_without_noise(cfg):
@@ -99,12 +100,18 @@ def test_pairings_checked_against_the_chain():
         load(*BASE, over)
 
 
-def test_ripple_names_checked_against_the_motors():
-    with pytest.raises(ConfigError, match=r"noise\.motor_ripple\.motr.*drive, load"):
-        load(*BASE, {"noise": {"motor_ripple": {"motr": {"broadband": 1.0}}}})
-    pulsating = {"broadband": 1.0, "pulsating": [{"harmonic": 6, "amplitude": 2.0}]}
-    with pytest.raises(ConfigError, match=r"noise\.motor_ripple\.load\.pulsating"):
-        load(*BASE, {"noise": {"motor_ripple": {"load": pulsating}}})
+def test_ripple_is_the_motors_own(cfg):
+    """A chain motor's ripple is its entry's ``ripple``; the paper's noise.motor_ripple
+    (driver, driven) is never read for it, and a chain motor's name there is refused with
+    where it goes."""
+    with pytest.raises(ConfigError, match=r"drivetrain\.motors\[i\]\.ripple") as exc:
+        load(*BASE, {"noise": {"motor_ripple": {"load": {"broadband": 1.0}}}})
+    assert exc.value.field == "noise.motor_ripple.load"
+    motors = copy.deepcopy(cfg["drivetrain"]["motors"])
+    del motors[1]["ripple"]
+    with pytest.raises(ConfigError) as exc:
+        load(*BASE, {"drivetrain": {"motors": motors}})
+    assert exc.value.field == "drivetrain.motors[1].ripple"
 
 
 def test_designed_test_refused_beyond_a_motors_torque_limit(cfg):

@@ -6,6 +6,11 @@ configuration and are filled in after the schema (only where the key is absent):
 * ``tsa.variants[i].averaging`` ← ``tsa.averaging``;
 * ``sweep.noise`` ← every level of the top-level ``noise`` not given for the sweep, so
   ``sweep.noise`` is the sweep's complete noise section;
+* with ``measured:`` records, ``identify.versions`` ← the listed versions a bench record
+  has (:func:`gbpipe.config.measured.bench_versions`: ``raw``, and ``tsa`` where the
+  records have a tacho; ``clean`` and the removal methods exist only for simulated
+  records), so that the paper campaign's list in ``config/config.yaml`` asks nothing of
+  a bench;
 * ``identify.tests`` / ``identify.profiles`` ← ``campaign.tests`` / ``campaign.profiles``;
 * ``removal.tests`` ← ``tsa.tests`` (the cycles whose families the removal methods take
   off the identified tests);
@@ -28,6 +33,8 @@ from __future__ import annotations
 import copy
 from collections.abc import Callable, Mapping
 from typing import Any
+
+from gbpipe.config.scope import simulated
 
 __all__ = ["Config", "derive"]
 
@@ -63,7 +70,8 @@ def _fill(node: dict, key: str, value: Any, path: Path, derived: set[Path]) -> N
 
 
 def derive(cfg: dict[str, Any], order_bound: Callable[[Mapping[str, Any]], int],
-           plant_order: Callable[[Mapping[str, Any]], int]) -> Config:
+           plant_order: Callable[[Mapping[str, Any]], int],
+           bench_versions: Callable[[Mapping[str, Any]], list[str]]) -> Config:
     """Fill the derived defaults of a schema-complete ``cfg`` (modified in place).
 
     Parameters
@@ -75,6 +83,8 @@ def derive(cfg: dict[str, Any], order_bound: Callable[[Mapping[str, Any]], int],
         ``cfg -> int``, the default of ``identify.max_order``.
     plant_order : callable
         ``cfg -> int``, the order that ``identify.order: model`` stands for.
+    bench_versions : callable
+        ``cfg -> list``, the versions of ``identify.versions`` bench records have.
 
     Returns
     -------
@@ -95,6 +105,10 @@ def derive(cfg: dict[str, Any], order_bound: Callable[[Mapping[str, Any]], int],
             _fill(sweep_noise[group], name, value, ("sweep", "noise", group), derived)
     _fill(cfg["removal"], "tests", list(cfg["tsa"]["tests"]), ("removal",), derived)
     idc = cfg["identify"]
+    if not simulated(cfg):
+        # not a derived path: the result is the user's list (or a part of it), which a
+        # later merge keeps
+        idc["versions"] = bench_versions(cfg)
     _fill(idc, "tests", cfg["campaign"]["tests"], ("identify",), derived)
     _fill(idc, "profiles", cfg["campaign"]["profiles"], ("identify",), derived)
     best = idc.setdefault("best", {})
@@ -108,7 +122,7 @@ def derive(cfg: dict[str, Any], order_bound: Callable[[Mapping[str, Any]], int],
     # with the measured-like data after harmonic removal, when they are identified
     designed_names = [d["name"] for d in cfg["campaign"]["designed"]]
     designed_ids = [t for t in idc["tests"] if t in designed_names]
-    _fill(cfg["fit"], "records", [] if cfg["measured"] or not designed_ids
+    _fill(cfg["fit"], "records", [] if not simulated(cfg) or not designed_ids
           else [f"{designed_ids[0]}_{idc['profiles'][0]}"], ("fit",), derived)
     _fill(cfg["fit"], "version", next((v for v in ("regression", "tsa", "raw", "clean")
                                        if v in idc["versions"]), idc["versions"][0]),
@@ -117,7 +131,7 @@ def derive(cfg: dict[str, Any], order_bound: Callable[[Mapping[str, Any]], int],
         _fill(idc, "max_order", order_bound(cfg), ("identify",), derived)
     # measured records: the order per pairing from their stabilization diagrams; the
     # simulated campaign: the configured bench's states in the band
-    _fill(idc, "order", "stabilization" if cfg["measured"] else "model", ("identify",), derived)
+    _fill(idc, "order", "model" if simulated(cfg) else "stabilization", ("identify",), derived)
     if idc["order"] == "model":
         idc["order"] = plant_order(cfg)
         derived.add(("identify", "order"))

@@ -16,6 +16,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 from typing import Any
 
+from gbpipe.config.scope import simulated
 from gbpipe.errors import ConfigError, ExcitationError
 from gbpipe.simulate.designed import designed_setpoint
 from gbpipe.simulate.excitation import within_limits
@@ -65,7 +66,12 @@ def _check_entry(cfg: Mapping[str, Any], i: int, spec: Mapping[str, Any]) -> Non
 
 
 def check_designed(cfg: Mapping[str, Any]) -> None:
-    """Check every entry of ``campaign.designed`` (names, base, band, signal, limit)."""
+    """Check every entry of ``campaign.designed`` (names, base, band, signal, limit).
+
+    Only when the campaign is simulated (:func:`~gbpipe.config.scope.simulated`).
+    """
+    if not simulated(cfg):
+        return
     seen: set[str] = set()
     for i, spec in enumerate(cfg["campaign"]["designed"]):
         name = spec["name"]

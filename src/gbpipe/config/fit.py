@@ -15,6 +15,7 @@ from pathlib import Path
 from typing import Any
 
 from gbpipe.config.schema_validation import suggest
+from gbpipe.config.scope import simulated
 from gbpipe.errors import ConfigError
 from gbpipe.fit.keypath import get_value
 from gbpipe.model import bench_ss
@@ -43,11 +44,11 @@ def check_fit(cfg: Mapping[str, Any]) -> None:
         _check_modes(cfg)
         _check_free(cfg)
         return
-    if fit["data"] == "nonparametric" and not cfg["measured"]:
+    if fit["data"] == "nonparametric" and simulated(cfg):
         raise ConfigError("fit.data", "nonparametric fits a bench record's Welch FRF; a "
                           "simulated record's reference is the true model: map bench "
                           "records (measured:) or set fit.data: frf")
-    if cfg["measured"]:
+    if not simulated(cfg):
         records, what = list(cfg["measured"]), "bench records (measured:)"
     else:
         records = [f"{t}_{p}" for t in idc["tests"] for p in idc["profiles"]]

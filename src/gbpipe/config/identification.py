@@ -12,6 +12,7 @@ from collections.abc import Mapping
 from typing import Any
 
 from gbpipe.config.schema_validation import suggest
+from gbpipe.config.scope import simulated
 from gbpipe.errors import ConfigError
 from gbpipe.model.chain import build_chain
 from gbpipe.model.truth import TORQUES
@@ -76,7 +77,7 @@ def _check_pairings(cfg: Mapping[str, Any]) -> None:
     idc = cfg["identify"]
     names = [p["name"] for p in idc["pairings"]]
     # the record contract: a drivetrain's sensors and motor torques, else the paper's
-    if cfg.get("drivetrain") and not cfg["measured"]:
+    if cfg.get("drivetrain") and simulated(cfg):
         chain = build_chain(cfg["drivetrain"])
         signals, torques = list(chain_signals(chain)), [m.input for m in chain.motors]
         where = "drivetrain"
@@ -86,7 +87,7 @@ def _check_pairings(cfg: Mapping[str, Any]) -> None:
         if p["name"] in names[:i]:
             raise ConfigError(f"identify.pairings[{i}].name",
                               f"'{p['name']}' is used twice; pairing names must be unique")
-        if cfg["measured"]:
+        if not simulated(cfg):
             continue  # names are checked against the measured records (config.measured)
         for j, inp in enumerate(p["inputs"]):
             if inp not in torques:
@@ -101,7 +102,7 @@ def _check_pairings(cfg: Mapping[str, Any]) -> None:
                 raise ConfigError(f"identify.pairings[{i}].outputs[{j}]",
                                   f"'{out}' is not a recorded signal of the simulated "
                                   f"{where}; {suggest(out, signals)}")
-    if cfg["measured"]:
+    if not simulated(cfg):
         return  # tests, profiles and best.* are of the simulated campaign
     if any(v != "clean" for v in idc["versions"]) and not cfg["campaign"]["measured_like"]:
         raise ConfigError("campaign.measured_like", "is false but identify.versions "
@@ -119,7 +120,7 @@ def _check_stabilization(cfg: Mapping[str, Any]) -> None:
     # identify.order: stabilization and the order ranges of identify.stabilization
     idc = cfg["identify"]
     st = idc["stabilization"]
-    if idc["order"] == "stabilization" and not cfg["measured"]:
+    if idc["order"] == "stabilization" and simulated(cfg):
         raise ConfigError("identify.order", "stabilization takes each bench record's order "
                           "from its stabilization diagram, and there are no measured: "
                           "records; for the simulated campaign use model, auto or an integer")
@@ -182,7 +183,7 @@ def _check_windows(cfg: Mapping[str, Any]) -> None:
 def check_tests(cfg: Mapping[str, Any]) -> None:
     """Every identified test is a ramp test or a designed test of the campaign (checked
     before anything derives a length or a revolution count from it)."""
-    if cfg["measured"]:
+    if not simulated(cfg):
         return
     known = test_names(cfg)
     for i, t in enumerate(cfg["identify"]["tests"]):
@@ -197,9 +198,9 @@ def check_identify(cfg: Mapping[str, Any]) -> None:
     With ``measured`` records, the record-dependent checks are
     :func:`gbpipe.config.measured.check_measured`'s (lengths: when the record is read).
     """
-    if not cfg["measured"]:
+    if simulated(cfg):
         _check_rates(cfg)
     _check_pairings(cfg)
     _check_stabilization(cfg)
-    if not cfg["measured"]:
+    if simulated(cfg):
         _check_windows(cfg)

@@ -94,7 +94,7 @@ def validate(cfg: Mapping[str, Any], *, check_stability: bool = True) -> Config:
     gearbox.check_gearbox(out)
     gearbox.check_cycle_names(out)
     drivetrain.check_drivetrain(out)
-    out = derive(out, bounds.order_bound, bounds.plant_order)
+    out = derive(out, bounds.order_bound, bounds.plant_order, measured.bench_versions)
     records.check_campaign(out)
     designed.check_designed(out)
     identification.check_tests(out)

@@ -15,15 +15,43 @@ from typing import Any
 
 from gbpipe.config.identification import DECIMATION_TRANSIENT, min_samples
 from gbpipe.config.schema_validation import suggest
+from gbpipe.config.scope import BENCH_VERSIONS
 from gbpipe.errors import ConfigError
 from gbpipe.measured import RecordSpec, parse
 
-__all__ = ["check_measured", "measured_specs", "min_duration"]
+__all__ = ["check_measured", "measured_specs", "min_duration", "bench_versions"]
 
 
 def measured_specs(cfg: Mapping[str, Any]) -> dict[str, RecordSpec]:
     """The parsed ``measured:`` records (empty when the campaign is simulated)."""
     return {name: parse(spec, name) for name, spec in cfg["measured"].items()}
+
+
+def bench_versions(cfg: Mapping[str, Any]) -> list[str]:
+    """The versions of ``identify.versions`` that the bench records have, in its order.
+
+    A bench record has ``raw`` and, when a record has a tacho channel, ``tsa``
+    (:data:`gbpipe.config.scope.BENCH_VERSIONS`); ``clean`` and the removal methods beyond
+    TSA exist only for simulated records (the simulator's exact separation). The list of
+    ``config/config.yaml`` is the paper campaign's, so the others are left out, not
+    refused: a bench config need not name its versions.
+
+    Raises
+    ------
+    gbpipe.errors.ConfigError
+        (``identify.versions``) None of the listed versions is one the records have.
+    """
+    specs = measured_specs(cfg)
+    tacho = any(sg.quantity == "tacho" for spec in specs.values()
+                for sg in spec.signals.values())
+    have = [v for v in BENCH_VERSIONS if v != "tsa" or tacho]
+    listed = list(cfg["identify"]["versions"])
+    kept = [v for v in listed if v in have]
+    if not kept:
+        raise ConfigError("identify.versions", f"{listed}: none is a version the bench "
+                          f"records have ({have}; tsa needs a signal with quantity: tacho); "
+                          f"list {' or '.join(have)}")
+    return kept
 
 
 def min_duration(cfg: Mapping[str, Any]) -> float:
@@ -66,9 +94,6 @@ def check_measured(cfg: Mapping[str, Any]) -> None:
     if not specs:
         return
     idc = cfg["identify"]
-    if "clean" in idc["versions"]:
-        raise ConfigError("identify.versions", "'clean' exists only for simulated records; "
-                          "measured records have [raw, tsa]")
     _check_signals(cfg, specs)
     for rec, spec in specs.items():  # a group's identify output is named by the group
         if spec.group in specs:
@@ -82,8 +107,9 @@ def check_measured(cfg: Mapping[str, Any]) -> None:
                               f"an integer multiple of identify.sample_rate ({fs_id:g} Hz)")
         tachos = [n for n, sg in spec.signals.items() if sg.quantity == "tacho"]
         if "tsa" in idc["versions"] and len(tachos) != 1:
-            raise ConfigError(f"measured.{rec}.signals", f"version 'tsa' needs exactly one "
-                              f"signal with quantity: tacho (the GB1 HSS); found {tachos}")
+            raise ConfigError(f"measured.{rec}.signals", f"version 'tsa' (identify.versions) "
+                              "needs exactly one signal with quantity: tacho in every "
+                              f"record; found {tachos}: map one, or drop 'tsa'")
     fr = idc["frf"]
     if fr["f_min"] >= fr["f_max"] or fr["f_max"] > idc["lowpass"] * fs_id / 2:
         raise ConfigError("identify.frf.f_max", f"{fr['f_max']:g} Hz must lie above f_min "

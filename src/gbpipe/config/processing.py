@@ -23,6 +23,7 @@ from scipy.fft import next_fast_len
 from scipy.signal import get_window, savgol_coeffs
 
 from gbpipe.config.schema_validation import suggest
+from gbpipe.config.scope import simulated
 from gbpipe.errors import ConfigError
 from gbpipe.harmonics import excitation_families, family_names, test_families
 from gbpipe.identify import VERSIONS
@@ -75,15 +76,20 @@ def _check_removal(cfg: Mapping[str, Any], field: str, cycles: Sequence[str], av
 
 
 def check_tsa(cfg: Mapping[str, Any]) -> None:
-    """Check that every TSA variant fits the sweep and ``tsa.tests`` the identified tests."""
+    """Check that every TSA variant fits the sweep and ``tsa.tests`` the identified tests.
+
+    Only when the campaign is simulated: a bench record's length is known once read,
+    and its TSA then names what is missing.
+    """
+    if not simulated(cfg):
+        return
     tsa = cfg["tsa"]
     revs = sweep_revolutions(cfg["sweep"])
     for i, v in enumerate(tsa["variants"]):
         _check_removal(cfg, f"tsa.variants[{i}].cycles", v["cycles"], v["averaging"], revs,
                        "sweep")
     idc = cfg["identify"]
-    if "tsa" not in idc["versions"] or cfg["measured"]:
-        # a bench record's length is known once read: TSA then names what is missing
+    if "tsa" not in idc["versions"]:
         return
     if not tsa["tests"]:
         raise ConfigError("tsa.tests", "is empty but identify.versions has 'tsa': name the "
@@ -115,18 +121,23 @@ def _check_frames(field: str, n_samples: float, frame: int, overlap: float, what
 
 
 def check_spectra(cfg: Mapping[str, Any]) -> None:
-    """Check the spectra settings against the sweep record."""
+    """Check the spectra settings against the sweep record.
+
+    With bench records only the window (``spectra.signal`` names a mapped signal:
+    :mod:`gbpipe.config.measured`; the sweep is not simulated).
+    """
     sp, sw = cfg["spectra"], cfg["sweep"]
-    # with bench records, spectra.signal names a mapped signal (gbpipe.config.measured)
-    names = recorded_signals(cfg, "sweep")
-    if not cfg["measured"] and sp["signal"] not in names:
-        raise ConfigError("spectra.signal", f"'{sp['signal']}' is not a sweep signal; "
-                          f"{suggest(sp['signal'], names)}")
     try:
         get_window(sp["window"], 16)
     except ValueError as exc:
         raise ConfigError("spectra.window", f"'{sp['window']}' is not a scipy.signal window "
                           f"({exc}); use e.g. hann, hamming, blackman, boxcar") from None
+    if not simulated(cfg):
+        return
+    names = recorded_signals(cfg, "sweep")
+    if sp["signal"] not in names:
+        raise ConfigError("spectra.signal", f"'{sp['signal']}' is not a sweep signal; "
+                          f"{suggest(sp['signal'], names)}")
     fs = float(sw["sample_rate"])
     if sp["max_frequency"] > fs / 2:
         raise ConfigError("spectra.max_frequency", f"{sp['max_frequency']:g} Hz is above the "
@@ -161,7 +172,12 @@ def check_removal(cfg: Mapping[str, Any]) -> None:
     ``tsa``) and families to remove (those of ``removal.tests``). A per-family
     ``regression.knot_spacing`` may name only the gearbox's families (``shaft``,
     ``mesh<k>``) and ``default``, and needs ``default`` unless it names every excited one.
+
+    Only when the campaign is simulated (bench records have no removal versions:
+    :data:`gbpipe.config.scope.BENCH_VERSIONS`).
     """
+    if not simulated(cfg):
+        return
     rem = cfg["removal"]
     families = excitation_families(cfg)
     # any family the gearbox can have (an unexcited one is simply not removed)
@@ -184,9 +200,6 @@ def check_removal(cfg: Mapping[str, Any]) -> None:
         if m not in rem["methods"]:
             raise ConfigError("identify.versions", f"'{m}' is a removal method not in "
                               f"removal.methods {rem['methods']}; add it there or drop it")
-    if cfg["measured"]:
-        raise ConfigError("identify.versions", f"{methods}: removal methods other than TSA "
-                          "run on the simulated tests only; use raw and tsa for bench records")
     if not test_families(cfg):
         raise ConfigError("removal.tests", f"{cfg['removal']['tests']} removes no excitation "
                           f"family ({sorted(families)}), but identify.versions {methods} "

@@ -308,7 +308,8 @@ def predict_test(cfg: Mapping[str, Any], closed: NamedSS, truths: Mapping[str, N
     ----------
     cfg : mapping
         Validated configuration: ``gearbox.stages``, ``excitation``, ``noise``
-        (``motor_ripple``, ``sensor``, ``encoder``), ``tsa.tests``, ``removal.tests`` and
+        (``motor_ripple``, ``sensor``, ``encoder``; a ``drivetrain``'s motors their own
+        ``ripple``), ``tsa.tests``, ``removal.tests`` and
         ``identify`` (``pairings``, ``versions``, ``frf``, ``sample_rate``, ``order`` and
         ``max_order``, ``tolerance_db``).
     closed : NamedSS
@@ -364,14 +365,21 @@ def predict_test(cfg: Mapping[str, Any], closed: NamedSS, truths: Mapping[str, N
     duration = speed_ref.size / fs
     n_samples = int(round(duration * float(idc["sample_rate"])))
     g = {p["name"]: frf(truths[p["name"]], f) for p in idc["pairings"]}
+    # a drivetrain's motor carries its ripple in its own entry, the paper's in noise
+    if cfg.get("drivetrain"):
+        ripple = {m["name"]: (m["ripple"], f"drivetrain.motors[{i}].ripple")
+                  for i, m in enumerate(cfg["drivetrain"]["motors"])}
+    else:
+        ripple = {m: (spec, f"noise.motor_ripple.{m}")
+                  for m, spec in noise["motor_ripple"].items()}
     per_version = []
     for version in idc["versions"]:
         cycles = version_cycles(cfg, version)
         removed = cycles or []
         source_psd = {
             **set_points,
-            **{f"disturbance_{m}": ripple_psd(noise["motor_ripple"][m], fs, f, rotation,
-                                              resolution, f"noise.motor_ripple.{m}", removed)
+            **{f"disturbance_{m}": ripple_psd(ripple[m][0], fs, f, rotation, resolution,
+                                              ripple[m][1], removed)
                for m in motors},
             # clean data have no gear excitation (the simulator adds it to the measured-like
             # signals only); their sensor noise: the Notes

@@ -6,8 +6,8 @@ reference values, the references of :func:`~gbpipe.simulate.designed.designed_re
 The chain's one speed-controlled motor follows ``speed_ref`` [rad/s] (at its controller's
 speed sensor: ``campaign.nominal.speed_rpm`` and ``campaign.step.speed_rpm`` are that
 sensor's rpm), its one torque-controlled motor ``torque_ref`` [N·m] (at its controller's
-torque sensor). Every motor's torque carries the broadband ripple of
-``noise.motor_ripple.<motor>`` (process noise).
+torque sensor). Every motor's torque carries the broadband ripple of its
+``drivetrain.motors[i].ripple`` (process noise).
 
 The record holds the chain's sensors and ``motor_torque_<motor>`` (:func:`chain_signals`),
 clean and, measured-like, with ``_measured`` variants: clean plus white sensor noise of
@@ -104,31 +104,26 @@ def _check_rotation(chain: Chain, speed_motor: Motor) -> None:
 def chain_ripple(cfg: Mapping[str, Any], chain: Chain) -> dict[str, float]:
     """Broadband torque ripple [N·m rms] of each chain motor, by motor name.
 
-    ``noise.motor_ripple`` is keyed by the description's motor names; the paper bench's
-    ``driver``/``driven`` entries (those of ``config/config.yaml``) are ignored on a chain.
+    A chain's motor carries its ripple in its own entry, ``drivetrain.motors[i].ripple``:
+    ``noise.motor_ripple`` is the paper bench's (its ``driver`` and ``driven``, which
+    ``config/config.yaml`` sets for every run), so it is not read on a chain, and the
+    paper's values never stand for a chain motor that happens to share a name.
 
     Raises
     ------
     ConfigError
-        A motor without an entry, an entry naming no motor, or a pulsating torque (not
-        simulated on a chain) — naming the key path and the motors.
+        A motor without ``ripple``, naming its key path and the fix.
     """
-    ripple = cfg["noise"]["motor_ripple"]
-    motors = [m.name for m in chain.motors]
-    for key in ripple:
-        if key not in motors and key not in ("driver", "driven"):
-            raise ConfigError(f"noise.motor_ripple.{key}", f"names no motor of the drivetrain; "
-                              f"use the motor names {', '.join(motors)}")
-    for m in motors:
-        if m not in ripple:
-            raise ConfigError(f"noise.motor_ripple.{m}", f"missing: give the {m} motor's "
-                              "ripple, e.g. {broadband: 0.5} (N·m rms), one entry per motor "
-                              f"of drivetrain.motors ({', '.join(motors)})")
-        if any(float(p["amplitude"]) for p in ripple[m]["pulsating"]):
-            raise ConfigError(f"noise.motor_ripple.{m}.pulsating", "the angle-locked pulsating "
-                              "torque is simulated on the paper bench only; set its "
-                              "amplitudes 0 or leave the list empty")
-    return {m: float(ripple[m]["broadband"]) for m in motors}
+    out = {}
+    for m in chain.motors:
+        entry = cfg["drivetrain"]["motors"][m.index]
+        if "ripple" not in entry:
+            raise ConfigError(f"drivetrain.motors[{m.index}].ripple", "missing: a simulated "
+                              f"campaign drives the {m.name} motor's torque with a white "
+                              "broadband ripple; give it in N·m rms (0: none), e.g. "
+                              "ripple: 0.5")
+        out[m.name] = float(entry["ripple"])
+    return out
 
 
 def simulate_chain(cfg: Mapping[str, Any], t: np.ndarray, speed_ref: np.ndarray,
