@@ -5,6 +5,12 @@ by element (:func:`gbpipe.model.chain_checks.check_description`: each error name
 key path, e.g. ``drivetrain.gears[1].parent``); without one, the paper's bench generated
 from ``gearbox:`` + ``bench:`` is checked the same way, once, so that the models built
 later (a fit builds one per evaluation) may skip the checks.
+
+A section that imports its elements (``opentorsion: file.py:function``) is read here
+first (:func:`expand_section`): the assembly defines the elements, and ``disks``,
+``shafts``, ``mounts`` or ``gears`` beside it are values of those elements, as the fit's
+overlay (``results/fit/<record>.yaml``) writes them; one that changes an element (a name,
+the nodes it joins, how many there are) is refused.
 """
 
 from __future__ import annotations
@@ -15,8 +21,69 @@ from typing import Any
 from gbpipe.errors import ConfigError
 from gbpipe.model.chain import build_chain
 from gbpipe.model.drivetrain import gearbox_chain, paper_chain
+from gbpipe.model.opentorsion_io import ASSEMBLY_KEYS, expand
 
-__all__ = ["check_drivetrain"]
+__all__ = ["check_drivetrain", "expand_section", "STRUCTURE_KEYS"]
+
+#: Keys of an element that say what it is and where it sits, not how stiff or heavy.
+STRUCTURE_KEYS = ("name", "between", "node", "parent", "child", "carrier", "planet", "sun",
+                  "ring", "housing", "teeth", "planets")
+
+
+def _values_onto(elements: Any, given: Any, field: str) -> Any:
+    """``given`` laid onto the assembly's ``elements``: its numbers replace theirs."""
+    if isinstance(elements, Mapping):          # disks: name -> {inertia}, merged by name
+        if not isinstance(given, Mapping):
+            raise ConfigError(field, "must be a mapping of the assembly's disks")
+        out = {k: dict(v) for k, v in elements.items()}
+        for name, entry in given.items():
+            if name not in out:
+                raise ConfigError(f"{field}.{name}", "is not a node of the assembly of "
+                                  f"drivetrain.opentorsion (nodes {', '.join(out)}): its "
+                                  "elements come from the file; change them there")
+            out[name].update(entry)
+        return out
+    if not isinstance(given, list) or len(given) != len(elements):
+        n = len(given) if isinstance(given, list) else "not a list of"
+        raise ConfigError(field, f"{n} entries beside drivetrain.opentorsion, whose assembly "
+                          f"has {len(elements)}: beside the file only the values of its "
+                          "elements may be given (as a fit's overlay does, the whole list); "
+                          "add or remove elements in the file")
+    out = []
+    for i, (have, entry) in enumerate(zip(elements, given, strict=True)):
+        for key in STRUCTURE_KEYS:
+            if key in entry and entry[key] != have.get(key):
+                raise ConfigError(f"{field}[{i}].{key}", f"{entry[key]!r} differs from the "
+                                  f"assembly's {have.get(key)!r} (drivetrain.opentorsion "
+                                  "defines the elements; beside it only their values may be "
+                                  "given): change the element in the file")
+        out.append({**have, **entry})
+    return out
+
+
+def expand_section(section: Mapping[str, Any], field: str = "drivetrain") -> dict[str, Any]:
+    """The ``drivetrain:`` section with ``opentorsion: file:function`` read into it.
+
+    The assembly's elements first (:func:`gbpipe.model.opentorsion_io.expand`), then the
+    section's own ``disks``/``shafts``/``mounts``/``gears`` as values on them: a disk by
+    name (its keys replace the assembly's), a list entry by position with the same
+    :data:`STRUCTURE_KEYS` (its numbers replace the assembly's). So a fitted overlay of
+    an imported chain reruns it, and a second validation keeps the values.
+
+    Raises
+    ------
+    ConfigError
+        See :func:`~gbpipe.model.opentorsion_io.expand`; an entry beside the file that
+        changes an element (``drivetrain.shafts[2].between``), names a node the assembly
+        lacks (``drivetrain.disks.<name>``) or changes the number of elements.
+    """
+    if not isinstance(section.get("opentorsion"), str):
+        return dict(section)
+    given = {k: section[k] for k in ASSEMBLY_KEYS if k in section}
+    out = expand({k: v for k, v in section.items() if k not in given}, field=field)
+    for key, value in given.items():
+        out[key] = _values_onto(out[key], value, f"{field}.{key}")
+    return out
 
 
 def check_drivetrain(cfg: Mapping[str, Any]) -> None:

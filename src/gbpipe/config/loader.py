@@ -5,8 +5,9 @@
 replaced), then :func:`validate` makes it complete and checks it, in this order:
 
 0. ``drivetrain: {opentorsion: file.py:function}`` read into the plain description
-   (:func:`gbpipe.model.opentorsion_io.expand`, the file relative to the working
-   directory), so the schema and the checks below see it like any other;
+   (:func:`gbpipe.config.drivetrain.expand_section`, the file relative to the working
+   directory; element values beside it, such as a fit's overlay, laid onto the
+   assembly's), so the schema and the checks below see it like any other;
 1. the closed schema, with every number finite and in range, and the schema's defaults
    filled in (:mod:`gbpipe.config.schema_validation`);
 2. the gearbox: teeth that assemble and mesh, list lengths per stage, cycle names
@@ -45,7 +46,6 @@ from gbpipe.config import (
 from gbpipe.config.derive import Config, derive
 from gbpipe.config.schema_validation import apply_schema
 from gbpipe.errors import ConfigError
-from gbpipe.model import opentorsion_io
 
 __all__ = ["load", "validate", "merge", "read_yaml", "fit_prior"]
 
@@ -89,7 +89,7 @@ def validate(cfg: Mapping[str, Any], *, check_stability: bool = True) -> Config:
     """
     cfg = cfg.explicit() if isinstance(cfg, Config) else cfg
     if isinstance(cfg.get("drivetrain"), Mapping):
-        cfg = {**cfg, "drivetrain": opentorsion_io.expand(cfg["drivetrain"])}
+        cfg = {**cfg, "drivetrain": drivetrain.expand_section(cfg["drivetrain"])}
     out = apply_schema(cfg)
     gearbox.check_gearbox(out)
     gearbox.check_cycle_names(out)
