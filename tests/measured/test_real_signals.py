@@ -5,8 +5,8 @@ channel of a TDMS file (no per-channel metadata), a torque set-point at 0 betwee
 a drive speed the drive updates every 50 samples, an encoder counter (1024 counts/rev), a
 dropped row and a forward clock jump. Every value read is compared with what was written
 (independently: the written arrays, plain numpy), the pulse times with the encoder's
-true revolutions; the real refusals (a declared range exceeded, NaN, a backward clock, a
-non-whole count) keep naming file, channel, sample and fix.
+true revolutions; the real refusals (a declared range exceeded, NaN, a backward clock
+where gaps are refused, a non-whole count) keep naming file, channel, sample and fix.
 """
 
 from __future__ import annotations
@@ -269,8 +269,11 @@ def test_real_refusals_stay(tmp_path):
                                         "NaN", "interpolate_upto"])
     back = {**cols, "Time": cols["Time"].copy()}
     back["Time"][3000:] -= 1.0
-    _refused(tmp_path, back, mapping(), ["run.tdms", r"channel '\w+' \(time\)",
-                                         "sample 3000", "backwards", "split the file"])
+    # a clock set back: refused where gaps are (with gaps: split a new segment:
+    # test_clock_reset.py)
+    _refused(tmp_path, back, {**mapping(), "gaps": "refuse"},
+             ["run.tdms", r"channel '\w+' \(time\)", "sample 3000", "backwards",
+              "gaps: split"])
     angle = {**cols, "EncoderCount": cols["EncoderCount"] + 0.37}
     _refused(tmp_path, angle, mapping(), ["run.tdms", "channel 'EncoderCount'",
                                           "field 'tacho'", "sample 0", "not a whole count",

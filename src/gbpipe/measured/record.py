@@ -24,7 +24,7 @@ import xarray as xr
 from gbpipe.measured import checks, derived, layout, stream
 from gbpipe.measured.channels import Channel
 from gbpipe.measured.spec import RecordSpec, parse
-from gbpipe.measured.timebase import Piece, overlap, resample
+from gbpipe.measured.timebase import Piece, overlap, resample, unroll
 from gbpipe.measured.writer import open_record, write_dataset
 
 __all__ = ["read"]
@@ -98,6 +98,7 @@ def _in_memory(rec: RecordSpec, base: Path, min_duration: float | None) -> xr.Da
     converted = {sname: layout.to_pieces(rec, rec.signals[sname], ch, base, shift[sname], units,
                                          notes)
                  for sname, ch in raw.items()}
+    unroll({layout.source_label(rec, rec.signals[n], base): p for n, p in converted.items()})
     start, _ = overlap({layout.source_label(rec, rec.signals[n], base): (p[0].t0, p[-1].end)
                         for n, p in converted.items()})
     segs = layout.grids({n: [(q.t0, q.end) for q in p] for n, p in converted.items()}, start, fs)

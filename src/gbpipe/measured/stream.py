@@ -33,7 +33,7 @@ from gbpipe.measured.columns import Column, StreamChannel, blocks
 from gbpipe.measured.formats import STREAMED, format_of, open_streams
 from gbpipe.measured.resample import BlockResampler
 from gbpipe.measured.spec import RecordSpec, SignalSpec
-from gbpipe.measured.timebase import overlap, scan_clock
+from gbpipe.measured.timebase import overlap, scan_clock, unroll
 from gbpipe.measured.writer import write_blocks
 
 __all__ = ["streamable", "write_record", "StreamPiece", "OUT_BLOCK"]
@@ -53,6 +53,7 @@ class StreamPiece:
     t0: float
     dt: float
     steps: list[tuple[float, float]]
+    era: int = 0
 
     @property
     def size(self) -> int:
@@ -111,10 +112,10 @@ def _pieces(rec: RecordSpec, sig: SignalSpec, ch: StreamChannel, where: str, shi
     notes[sig.name] = checks.enforce(found, sig.checks, where, layout.time_of(ch))
     steps, units[sig.name] = layout.conversion(ch.unit, sig, where)
     if ch.time is None:
-        runs = [(0, ch.values.size, ch.t0 + shift, ch.dt)]
+        runs = [(0, ch.values.size, ch.t0 + shift, ch.dt, 0)]
     else:
         runs = scan_clock(ch.time, where, shift=shift, gaps=rec.gaps)
-    return [StreamPiece(column, a, b, t0, dt, steps) for a, b, t0, dt in runs]
+    return [StreamPiece(column, a, b, t0, dt, steps, era) for a, b, t0, dt, era in runs]
 
 
 def _whole(ch: StreamChannel) -> Channel:
@@ -159,6 +160,8 @@ def write_record(rec: RecordSpec, base: Path, out: str | os.PathLike, *,
             else:
                 plan[sname] = _pieces(rec, sig, ch, layout.source_label(rec, sig, base),
                                       shift[sname], units, notes)
+        unroll({layout.source_label(rec, rec.signals[n], base): plist
+                for n, plist in {**plan, **tachos}.items()})
         windows = {n: [(p.t0, p.end) for p in plist]
                    for n, plist in {**plan, **tachos}.items()}
         windows = {n: windows[n] for n in rec.signals}

@@ -1,17 +1,22 @@
 """Time bases of bench channels: clock checks, overlap window, resampling to the record grid.
 
 A channel becomes a list of :class:`Piece` — contiguous runs of uniformly spaced samples
-on the common clock. :func:`pieces` finds, on an explicit time channel, backward jumps
-(always refused: after a clock reset the channel no longer shares the other files'
-clock), gaps (refused, split at, or bridged when at most ``interpolate_upto`` samples are
-missing), and fits a uniform clock through the stamps of each run, so logging jitter
-of up to :data:`JITTER` sample does not become signal noise. :func:`overlap` intersects the
-channels' windows; :func:`resample` (from :mod:`gbpipe.measured.resample`, where the
-anti-aliased resampling is described) puts a piece on the record's uniform grid.
+on the common clock. :func:`pieces` finds, on an explicit time channel, gaps (refused,
+split at, or bridged when at most ``interpolate_upto`` samples are missing) and backward
+steps: a clock reset, as a logger restarting its clock does. With ``gaps: split`` a reset
+starts a new run of a new clock *era*, else it is refused; a repeated stamp is always
+refused. It fits a uniform clock through the stamps of each run, so logging jitter of up
+to :data:`JITTER` sample does not become signal noise. :func:`unroll` then places each era
+after the one before on the common clock, where every file resets alike (the same
+resets, at the same moments); where the files' clocks would disagree after a reset, it
+refuses naming the files and the sample. :func:`overlap` intersects the channels'
+windows; :func:`resample` (from :mod:`gbpipe.measured.resample`, where the anti-aliased
+resampling is described) puts a piece on the record's uniform grid.
 """
 
 from __future__ import annotations
 
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -21,7 +26,7 @@ from gbpipe.measured import checks
 from gbpipe.measured.columns import Column, blocks
 from gbpipe.measured.resample import HALF_TAPS, resample, sinc_interpolate
 
-__all__ = ["Piece", "pieces", "scan_clock", "overlap", "intersect", "resample",
+__all__ = ["Piece", "pieces", "scan_clock", "unroll", "overlap", "intersect", "resample",
            "sinc_interpolate", "HALF_TAPS", "GAP_FACTOR", "JITTER"]
 
 #: largest deviation of a time stamp from the fitted uniform clock [sample intervals]
@@ -33,11 +38,17 @@ GAP_FACTOR = 1.75
 
 @dataclass
 class Piece:
-    """Uniformly sampled run: sample ``k`` at ``t0 + k * dt`` [s] on the common clock."""
+    """Uniformly sampled run: sample ``k`` at ``t0 + k * dt`` [s] on the common clock.
+
+    ``first`` is the channel's index of sample 0, ``era`` the number of clock resets in
+    the channel before the run (:func:`unroll`).
+    """
 
     values: np.ndarray
     t0: float
     dt: float
+    first: int = 0
+    era: int = 0
 
     @property
     def end(self) -> float:
@@ -71,11 +82,15 @@ def _check_jitter(source: str, dev: float, dt: float, sample: int) -> None:
 
 
 def _backward(source: str, step: float, i: int, t_i: float) -> DataError:
-    what = ("time repeats (duplicate stamp)" if step == 0 else
-            f"time jumps backwards by {-step:.6g} s (a clock reset, or unsorted rows: "
-            f"time is not monotonic)")
-    return DataError(f"{source} (time)", f"{what} between samples {i} and {i + 1}, at "
-                     f"t = {t_i:.6g} s; split the file at the reset", sample=i + 1)
+    if step == 0:
+        return DataError(f"{source} (time)", f"time repeats (duplicate stamp) between "
+                         f"samples {i} and {i + 1}, at t = {t_i:.6g} s: remove the "
+                         "repeated row", sample=i + 1)
+    return DataError(f"{source} (time)", f"time jumps backwards by {-step:.6g} s (a clock "
+                     f"reset, or unsorted rows: time is not monotonic) between samples {i} "
+                     f"and {i + 1}, at t = {t_i:.6g} s; a logger's clock reset starts a new "
+                     "segment with gaps: split (else split the file at the reset)",
+                     sample=i + 1)
 
 
 def _gap(source: str, step: float, dt_nom: float, missing: int, allow: str, i: int,
@@ -101,7 +116,8 @@ def pieces(values: np.ndarray, source: str, *, t0: float | None = None,
     time : numpy.ndarray, optional
         Sample times [s] on the common clock.
     gaps : {"refuse", "split", "interpolate"}
-        What a gap in ``time`` does.
+        What a gap in ``time`` does; with ``"split"`` a backward step (a clock reset)
+        also starts a new run, of the next era.
     interpolate_upto : int
         With ``gaps="interpolate"``, the most missing samples bridged (linearly: a gap of
         a few samples carries no information a better interpolant could restore).
@@ -109,8 +125,8 @@ def pieces(values: np.ndarray, source: str, *, t0: float | None = None,
     Raises
     ------
     gbpipe.errors.DataError
-        On non-finite or non-increasing times (with the sample index and the jump size),
-        and on a gap the policy does not allow.
+        On non-finite or repeated times, a backward step unless ``gaps="split"`` (with
+        the sample index and the jump size), and on a gap the policy does not allow.
     """
     if time is None:
         return [Piece(values, float(t0), float(dt))]
@@ -120,8 +136,8 @@ def pieces(values: np.ndarray, source: str, *, t0: float | None = None,
         raise DataError(f"{source} (time)", "time stamp is NaN or inf", sample=int(bad[0]))
     d = np.diff(t)
     back = np.flatnonzero(d <= 0)
-    if back.size:
-        i = int(back[0])
+    if back.size and (gaps != "split" or np.any(d[back] == 0)):
+        i = int(back[0] if gaps != "split" else back[d[back] == 0][0])
         raise _backward(source, float(d[i]), i, float(t[i]))
     dt_nom = float(np.median(d))
     gap_at = np.flatnonzero(d > GAP_FACTOR * dt_nom)
@@ -141,12 +157,77 @@ def pieces(values: np.ndarray, source: str, *, t0: float | None = None,
         t = np.interp(full_k, k, t)
         values = np.interp(full_k, k, values)
         gap_at = np.empty(0, dtype=int)
-    out, start = [], 0
-    for stop in [*(gap_at + 1).tolist(), t.size]:
+    out, start, era = [], 0, 0
+    resets = set((back + 1).tolist())
+    for stop in [*sorted({*(gap_at + 1).tolist(), *resets}), t.size]:
         a, b = _fit_clock(t[start:stop], f"{source} (time)", start)
-        out.append(Piece(values[start:stop], a, b))
+        era += start in resets
+        out.append(Piece(values[start:stop], a, b, start, era))
         start = stop
     return out
+
+
+def unroll(channels: Mapping[str, Sequence]) -> None:
+    """Place each clock era after the one before on the common clock (pieces in place).
+
+    After a reset a channel's stamps start again from an earlier time; the runs of era
+    ``k`` are shifted by one offset for every channel, so that they begin one sample
+    interval (the slowest channel's) after the latest sample of era ``k - 1``: how long
+    the logger stood between the eras is not in the files, so the record's time axis
+    puts nothing there, and ``gaps: split`` numbers the eras' runs as segments. Every
+    channel must reset alike, or the files no longer share one clock after it.
+
+    Parameters
+    ----------
+    channels : mapping
+        Source label (``file: channel``, for messages) -> its pieces, each with ``t0``,
+        ``end``, ``dt`` [s], ``first`` (sample index) and ``era``.
+
+    Raises
+    ------
+    gbpipe.errors.DataError
+        A channel whose clock resets where another's does not (a different count, or a
+        reset more than one sample interval away), naming both and the sample.
+    """
+    eras = {label: max(p.era for p in plist) for label, plist in channels.items()}
+    n = max(eras.values())
+    if n == 0:
+        return
+    ref = next(label for label, k in eras.items() if k == n)
+    slowest = max(p.dt for plist in channels.values() for p in plist)
+    shift = 0.0
+    for k in range(1, n + 1):
+        ref_reset = _reset(channels[ref], k)
+        moments = {}
+        for label, plist in channels.items():
+            reset = _reset(plist, k) if eras[label] >= k else None
+            tol = (1 + 2 * JITTER) * max(plist[0].dt, channels[ref][0].dt)
+            if reset is None or max(abs(reset[0] - ref_reset[0]),
+                                    abs(reset[1] - ref_reset[1])) > tol:
+                seen = ("runs on without it" if reset is None else
+                        f"resets at its sample {reset[2]} (t = {reset[0]:.6g} s -> "
+                        f"{reset[1]:.6g} s)")
+                raise DataError(f"{ref} (time)", f"the clock resets at sample "
+                                f"{ref_reset[2]} (t = {ref_reset[0]:.6g} s -> "
+                                f"{ref_reset[1]:.6g} s), but {label} {seen}: after the "
+                                "reset the files no longer share one clock; cut the files "
+                                "at the reset and map each part as a record of its own",
+                                sample=ref_reset[2])
+            moments[label] = reset
+        before = max(m[0] for m in moments.values())
+        after = min(m[1] for m in moments.values())
+        shift += before + slowest - after
+        for plist in channels.values():
+            for p in plist:
+                if p.era == k:
+                    p.t0 += shift
+
+
+def _reset(plist: Sequence, k: int) -> tuple[float, float, int]:
+    """(last time of era ``k - 1``, first time of era ``k``, its first sample) [s]."""
+    last = max(p.end for p in plist if p.era == k - 1)
+    first = min((p for p in plist if p.era == k), key=lambda p: p.first)
+    return last, first.t0, first.first
 
 
 def overlap(windows: dict[str, tuple[float, float]], unit: str = "s") -> tuple[float, float]:
@@ -188,7 +269,8 @@ def scan_clock(time: Column, source: str, *, shift: float = 0.0, gaps: str = "re
     The same checks and messages with absolute sample indices, in two passes: stamps,
     steps, gaps and the least-squares sums of each run's clock; then each run's jitter
     about its fitted clock. ``gaps`` is ``"refuse"`` or ``"split"`` (bridging gaps needs
-    the channel in memory: :func:`pieces`). The nominal interval that defines a gap is
+    the channel in memory: :func:`pieces`); with ``"split"`` a clock reset starts a run of
+    the next era, as in :func:`pieces`. The nominal interval that defines a gap is
     the median interval of the first block (of the whole channel in :func:`pieces`).
 
     Parameters
@@ -202,9 +284,10 @@ def scan_clock(time: Column, source: str, *, shift: float = 0.0, gaps: str = "re
 
     Returns
     -------
-    list of (first, stop, t0, dt)
+    list of (first, stop, t0, dt, era)
         Sample index range ``[first, stop)`` of each gap-free run and its fitted uniform
-        clock: sample ``first + k`` at ``t0 + k dt`` [s] on the common clock.
+        clock: sample ``first + k`` at ``t0 + k dt`` [s] on the common clock; ``era`` the
+        clock resets before it.
     """
     block = checks.BLOCK if block is None else block  # read now: tests make it small
     n = time.size
@@ -213,6 +296,7 @@ def scan_clock(time: Column, source: str, *, shift: float = 0.0, gaps: str = "re
     bad = back = None
     gap_at: list[int] = []
     gap_step: list[float] = []
+    reset_at: list[int] = []
     sums = [[0, 0.0, 0.0, None]]  # per run: first index, sum t', sum k t', t_ref
     for a, b in blocks(n, block):
         t = time.read(a, b) + shift
@@ -225,14 +309,18 @@ def scan_clock(time: Column, source: str, *, shift: float = 0.0, gaps: str = "re
         base = a if prev is None else a - 1  # tt[i] is sample base + i
         if dt_nom is None:
             dt_nom = float(np.median(d)) if d.size else 0.0
-        down = np.flatnonzero(d <= 0)
-        if down.size and back is None:
-            i = int(down[0])
+        down = np.flatnonzero(d < 0 if gaps == "split" else d <= 0)
+        same = np.flatnonzero(d == 0)
+        refused = same if gaps == "split" else down
+        if refused.size and back is None:
+            i = int(refused[0])
             back = (float(d[i]), base + i, float(tt[i]))
         new = np.flatnonzero(d > GAP_FACTOR * dt_nom)
         gap_at += (base + new).tolist()
         gap_step += d[new].tolist()
-        _accumulate(sums, t, a, (base + new + 1).tolist())
+        if gaps == "split":
+            reset_at += (base + down + 1).tolist()
+        _accumulate(sums, t, a, sorted((base + np.concatenate([new, down]) + 1).tolist()))
         prev = t[-1]
     if bad is not None:
         raise DataError(f"{source} (time)", "time stamp is NaN or inf", sample=bad)
@@ -243,7 +331,7 @@ def scan_clock(time: Column, source: str, *, shift: float = 0.0, gaps: str = "re
         t_i = float(time.read(i, i + 1)[0]) + shift
         raise _gap(source, gap_step[0], dt_nom, int(np.rint(gap_step[0] / dt_nom)) - 1, "",
                    i, t_i, len(gap_at))
-    bounds = [0, *(g + 1 for g in gap_at), n]
+    bounds = [0, *sorted({*(g + 1 for g in gap_at), *reset_at}), n]
     runs = []
     for (first, s_t, s_kt, t_ref), stop in zip(sums, bounds[1:], strict=True):
         m = stop - first
@@ -252,8 +340,9 @@ def scan_clock(time: Column, source: str, *, shift: float = 0.0, gaps: str = "re
                             sample=first)
         # the closed form of _fit_clock, from sums of the stamps less the first one
         slope = (s_kt - 0.5 * (m - 1) * s_t) / (m * (m * m - 1) / 12.0)
-        runs.append((first, stop, t_ref + s_t / m - slope * 0.5 * (m - 1), slope))
-    for first, stop, t0, dt in runs:
+        era = sum(r <= first for r in reset_at)
+        runs.append((first, stop, t_ref + s_t / m - slope * 0.5 * (m - 1), slope, era))
+    for first, stop, t0, dt, _ in runs:
         worst, at = -1.0, first
         for a, b in blocks(stop - first, block):
             k = np.arange(a, b, dtype=float)
