@@ -300,7 +300,7 @@ def test_config_section_from_a_file(cfg, tmp_path, monkeypatch):
     ("asm.py:nothing", "no function 'nothing'"),
     ("asm.py:not_an_assembly", "not an opentorsion.Assembly"),
     ("asm.py", "path/to/file.py:function"),
-    ("asm.py:broken", r"broken\(\) failed: TypeError"),
+    ("asm.py:broken", r"broken\(\) failed at .*asm.py:\d+: TypeError"),
 ])
 def test_config_hook_errors(tmp_path, spec, words):
     (tmp_path / "asm.py").write_text(ASSEMBLY_FILE)
@@ -323,17 +323,9 @@ def test_missing_opentorsion_names_the_extra(tmp_path, monkeypatch):
         expand({"opentorsion": "asm.py:bench"}, tmp_path)
 
 
-def test_refused_elements():
-    disks = [ot.Disk(0, 1.0), ot.Disk(1, 1.0)]
-    elastic = ot.Assembly([ot.Shaft(0, 1, k=1e4)], disk_elements=disks,
-                          elastic_gear_elements=[ot.ElasticGear(1, 0.1, 1.0)])
-    with pytest.raises(ConfigError, match="ElasticGear"):
-        from_assembly(elastic)
-    damper = ot.Assembly([ot.Shaft(0, 1, k=1e4)],
-                         disk_elements=[ot.Disk(0, 1.0, c=3.0), ot.Disk(1, 1.0)])
-    with pytest.raises(ConfigError, match="node 0 has a damper"):
-        from_assembly(damper)
+def test_refused_loop():
     # a shaft that closes a loop around a mesh: the reversal matters
+    disks = [ot.Disk(0, 1.0), ot.Disk(1, 1.0)]
     g = ot.Gear(0, 0.1, 1.0)
     loop = ot.Assembly([ot.Shaft(0, 1, k=1e4)], disk_elements=disks,
                        gear_elements=[g, ot.Gear(1, 0.1, 2.0, parent=g)])

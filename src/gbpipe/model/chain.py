@@ -8,8 +8,13 @@ importer produces and a fit frees by key path)::
     shafts: [{name, between: [a, b], stiffness [N·m/rad],
               damping_ratio [-] | damping [N·m·s/rad], kind: label?}]   twist θ_a − θ_b
     mounts: [{name, node, stiffness, damping_ratio | damping}]           twist θ_node
-    gears: [{name, parent, child, teeth: [z_parent, z_child] | ratio, housing: node?}]
-            θ_child = θ_h + r·(θ_parent − θ_h),  r = z_parent/z_child (child / parent speed)
+            (stiffness 0 with damping > 0: a damper to ground)
+    gears: [{name, parent, child, teeth: [z_parent, z_child] | ratio, housing: node?,
+             stiffness?, damping?}]
+            θ_child = θ_h + r·(θ_parent − θ_h),  r = z_parent/z_child (child / parent speed);
+            with a stiffness [N·m/rad] an elastic mesh: a spring on the twist
+            (θ_parent − θ_h) − (θ_child − θ_h)/r, referred to the parent (openTorsion's
+            ElasticGear), the child then a coordinate of its own
     planetary: [{name, carrier, planet, sun, ring: node | null,
                  teeth: {ring, planet, sun}, planets}]    planet disk inertia per planet
     motors: [{name, node, sign: ±1, torque_limit [N·m]?,
@@ -39,7 +44,7 @@ import numpy as np
 from gbpipe.model.chain_checks import check_description, check_inertia
 from gbpipe.model.mechanics import Body, Mechanism, Spring
 
-__all__ = ["Controller", "Motor", "Chain", "build_chain", "constraints",
+__all__ = ["Controller", "Motor", "Chain", "build_chain", "constraints", "mesh_incidence",
            "damping_coefficient"]
 
 
@@ -180,6 +185,8 @@ def constraints(desc: Mapping[str, Any]) -> dict[str, list[tuple[str | None, flo
     """
     out: dict[str, list[tuple[str | None, float]]] = {}
     for g in desc.get("gears", []):
+        if "stiffness" in g:
+            continue      # an elastic mesh is a spring (mesh_incidence), not a constraint
         r, rest = _ratio(g)
         out[g["child"]] = [(g["parent"], r), (g.get("housing"), rest)]
     for p in desc.get("planetary", []):
@@ -187,6 +194,22 @@ def constraints(desc: Mapping[str, Any]) -> dict[str, list[tuple[str | None, flo
         pc, pr, sc, sr = _planetary_numbers(int(t["ring"]), int(t["planet"]), int(t["sun"]))
         out[p["planet"]] = [(p["carrier"], pc), (p["ring"], pr)]
         out[p["sun"]] = [(p["carrier"], sc), (p["ring"], sr)]
+    return out
+
+
+def mesh_incidence(entry: Mapping[str, Any]) -> dict[str, float]:
+    """The twist of an elastic gear mesh over its nodes: body → coefficient.
+
+    ``(θ_parent − θ_h) − (θ_child − θ_h)/r`` [rad], the mesh's relative angle referred to
+    the parent (0 when the mesh turns as a rigid one: ``θ_child = θ_h + r·(θ_parent −
+    θ_h)``); its stiffness times it is the torque on the parent [N·m]. This is
+    openTorsion's ``ElasticGear`` (stiffness ``k·g gᵀ``, ``g = [1, R_child/R_parent]`` in
+    its reversing frame).
+    """
+    r = _ratio(entry)[0]
+    out = {entry["parent"]: 1.0, entry["child"]: -1.0 / r}
+    if entry.get("housing") is not None:
+        out[entry["housing"]] = 1.0 / r - 1.0
     return out
 
 
@@ -308,7 +331,8 @@ def build_chain(desc: Mapping[str, Any], where: str = "drivetrain", *,
         [p["ring"] for p in desc.get("planetary", []) if p["ring"] is not None]
         + [g["housing"] for g in desc.get("gears", []) if g.get("housing") is not None]))
     motor_nodes = {m["node"] for m in desc.get("motors", [])}
-    gear_nodes = set(cons) | {g["parent"] for g in desc.get("gears", [])} | {
+    gear_nodes = set(cons) | {n for g in desc.get("gears", [])
+                              for n in (g["parent"], g["child"])} | {
         p["carrier"] for p in desc.get("planetary", [])}
 
     def kind(n: str) -> str:
@@ -325,7 +349,9 @@ def build_chain(desc: Mapping[str, Any], where: str = "drivetrain", *,
             T[r, c] += v
     springs = ([_spring(s, {s["between"][0]: 1.0, s["between"][1]: -1.0},
                         s.get("kind", "shaft")) for s in desc.get("shafts", [])]
-               + [_spring(m, {m["node"]: 1.0}, "mount") for m in desc.get("mounts", [])])
+               + [_spring(m, {m["node"]: 1.0}, "mount") for m in desc.get("mounts", [])]
+               + [_spring(g, mesh_incidence(g), "mesh") for g in desc.get("gears", [])
+                  if "stiffness" in g])
     meshes = [{"name": g["name"], "members": [g["parent"], g["child"]],
                "ratio": _ratio(g)[0]} for g in desc.get("gears", [])] + [
         {"name": p["name"], "members": [p["carrier"], p["planet"], p["sun"]],
@@ -334,8 +360,10 @@ def build_chain(desc: Mapping[str, Any], where: str = "drivetrain", *,
     mech = Mechanism(bodies, springs, coords, T, meshes)
     if check:
         check_inertia(mech, where)
+    # a mesh's damping is absolute (N·m·s/rad) or 0: no ratio rule refers it
     absolute = {s["name"] for s in [*desc.get("shafts", []), *desc.get("mounts", [])]
-                if "damping" in s}
+                if "damping" in s} | {g["name"] for g in desc.get("gears", [])
+                                      if "stiffness" in g}
     _set_damping(mech, frames, absolute)
     sensors = desc.get("sensors", [])
     return Chain(

@@ -2,7 +2,8 @@
 
 Run by :func:`gbpipe.model.chain.build_chain` before any matrix is built: an unknown node
 or spring, a name used twice, a node constrained twice or in a constraint loop, a spring
-that is not a spring (stiffness ≤ 0 N·m/rad), a motor loop on the wrong kind of sensor, a
+that is not a spring (stiffness ≤ 0 N·m/rad; a mount of stiffness 0 is a damper to ground
+and needs its damping in N·m·s/rad), a motor loop on the wrong kind of sensor, a
 part of the chain neither grounded nor driven, a coordinate without inertia.
 """
 
@@ -34,16 +35,32 @@ def _node(path: str, name: Any, nodes: Mapping[str, Any]) -> None:
                           f"{', '.join(nodes)}); add it with its inertia in kg·m²")
 
 
-def _spring(path: str, entry: Mapping[str, Any]) -> None:
-    if not float(entry["stiffness"]) > 0:
+def _spring(path: str, entry: Mapping[str, Any], damper: bool = False) -> None:
+    """Check a spring-damper; ``damper``: stiffness 0 allowed with an absolute damping."""
+    k = float(entry["stiffness"])
+    if damper and k == 0:
+        # a dashpot to ground (bearing losses): its damping cannot come from a ratio of
+        # a stiffness it does not have
+        if not float(entry.get("damping", 0.0)) > 0:
+            raise ConfigError(f"{path}.damping", "a mount of stiffness 0 is a damper to "
+                              "ground: give its damping (N·m·s/rad) > 0 (not damping_ratio)")
+    elif not k > 0:
         raise ConfigError(f"{path}.stiffness", f"{entry['stiffness']} N·m/rad: a spring's "
-                          "stiffness must be > 0 (a rigid link is a gear or one disk)")
+                          "stiffness must be > 0 (a rigid link is a gear or one disk"
+                          + ("; a damper to ground is a mount of stiffness 0)" if damper
+                             else ")"))
     if "damping" in entry and "damping_ratio" in entry:
         raise ConfigError(f"{path}.damping", "give damping (N·m·s/rad) or damping_ratio "
                           "(-), not both")
     for key in ("damping", "damping_ratio"):
         if key in entry and float(entry[key]) < 0:
             raise ConfigError(f"{path}.{key}", f"{entry[key]} must be ≥ 0")
+
+
+def _springs(desc: Mapping[str, Any]) -> list[Mapping[str, Any]]:
+    """Every element with a twist: shafts, mounts, elastic gear meshes."""
+    return [*desc.get("shafts", []), *desc.get("mounts", []),
+            *(g for g in desc.get("gears", []) if "stiffness" in g)]
 
 
 def _elements(desc: Mapping[str, Any], where: str) -> list[tuple[str, list[Any]]]:
@@ -71,7 +88,7 @@ def _check_links(desc: Mapping[str, Any], where: str) -> None:
         _spring(path, s)
     for i, m in enumerate(desc.get("mounts", [])):
         _node(f"{where}.mounts[{i}].node", m["node"], nodes)
-        _spring(f"{where}.mounts[{i}]", m)
+        _spring(f"{where}.mounts[{i}]", m, damper=True)
     owner: dict[str, str] = {}
     for i, g in enumerate(desc.get("gears", [])):
         path = f"{where}.gears[{i}]"
@@ -86,7 +103,10 @@ def _check_links(desc: Mapping[str, Any], where: str) -> None:
         if min(g["teeth"] if "teeth" in g else [g["ratio"]]) <= 0:
             raise ConfigError(f"{path}.{'teeth' if 'teeth' in g else 'ratio'}",
                               "must be > 0")
-        _constrain(owner, g["child"], f"{path}.child")
+        if "stiffness" in g:
+            _spring(path, g)          # an elastic mesh: a spring, the child free
+        else:
+            _constrain(owner, g["child"], f"{path}.child")
     for i, p in enumerate(desc.get("planetary", [])):
         path = f"{where}.planetary[{i}]"
         for key in ("carrier", "planet", "sun", "ring"):
@@ -111,7 +131,8 @@ def _constrain(owner: dict[str, str], node: str, path: str) -> None:
 def _no_loop(desc: Mapping[str, Any], owner: Mapping[str, str]) -> None:
     deps: dict[str, list[str]] = {}
     for g in desc.get("gears", []):
-        deps[g["child"]] = [n for n in (g["parent"], g.get("housing")) if n is not None]
+        if "stiffness" not in g:
+            deps[g["child"]] = [n for n in (g["parent"], g.get("housing")) if n is not None]
     for p in desc.get("planetary", []):
         for m in ("planet", "sun"):
             deps[p[m]] = [n for n in (p["carrier"], p["ring"]) if n is not None]
@@ -134,7 +155,7 @@ def _no_loop(desc: Mapping[str, Any], owner: Mapping[str, str]) -> None:
 
 def _check_io(desc: Mapping[str, Any], where: str) -> None:
     nodes = desc["disks"]
-    springs = [s["name"] for s in [*desc.get("shafts", []), *desc.get("mounts", [])]]
+    springs = [s["name"] for s in _springs(desc)]
     kinds: dict[str, str] = {}
     for i, s in enumerate(desc.get("sensors", [])):
         found = [k for k in ("speed", "angle", "torque") if k in s]
@@ -144,14 +165,15 @@ def _check_io(desc: Mapping[str, Any], where: str) -> None:
         if found[0] == "torque":
             if s["torque"] not in springs:
                 raise ConfigError(f"{where}.sensors[{i}].torque", f"'{s['torque']}' is not "
-                                  f"a shaft or mount (have {', '.join(springs)})")
+                                  f"a shaft, mount or elastic mesh (have "
+                                  f"{', '.join(springs)})")
         else:
             _node(f"{where}.sensors[{i}].{found[0]}", s[found[0]], nodes)
         kinds[s["name"]] = found[0]
     for i, e in enumerate(desc.get("excitation", [])):
         if e["shaft"] not in springs:
             raise ConfigError(f"{where}.excitation[{i}].shaft", f"'{e['shaft']}' is not a "
-                              f"shaft or mount (have {', '.join(springs)})")
+                              f"shaft, mount or elastic mesh (have {', '.join(springs)})")
     for i, m in enumerate(desc.get("motors", [])):
         _node(f"{where}.motors[{i}].node", m["node"], nodes)
         if float(m.get("sign", 1)) not in (1.0, -1.0):
@@ -197,8 +219,9 @@ def _check_parts(desc: Mapping[str, Any], where: str) -> None:
     for r, members in parts.items():
         if r not in held:
             raise ConfigError(f"{where}.disks", f"the part {{{', '.join(members)}}} is "
-                              "neither grounded (a mount) nor driven (a motor) and no "
-                              "shaft or gear links it to one that is; link it or add a mount")
+                              "neither grounded (a mount: a spring or a damper) nor driven "
+                              "(a motor) and no shaft or gear links it to one that is; link "
+                              "it or add a mount")
 
 
 def check_description(desc: Mapping[str, Any], where: str = "drivetrain") -> None:
@@ -216,9 +239,11 @@ def check_description(desc: Mapping[str, Any], where: str = "drivetrain") -> Non
     for n, d in disks.items():
         if float(d["inertia"]) < 0:
             raise ConfigError(f"{where}.disks.{n}.inertia", f"{d['inertia']} kg·m² must be ≥ 0")
-    # shafts and mounts share one namespace (sensors and excitation name either)
+    # shafts, mounts and elastic meshes share one namespace (sensors and excitation name
+    # any of them)
     _unique((f"{where}.{k}[{i}].name", s["name"])
-            for k in ("shafts", "mounts") for i, s in enumerate(desc.get(k, [])))
+            for k in ("shafts", "mounts", "gears") for i, s in enumerate(desc.get(k, []))
+            if k != "gears" or "stiffness" in s)
     _unique((f"{where}.{k}[{i}].name", s["name"])
             for k in ("gears", "planetary") for i, s in enumerate(desc.get(k, [])))
     for key in ("motors", "sensors", "excitation"):

@@ -3,8 +3,10 @@
 A :class:`Mechanism` holds the *physical* angle of every body (carriers, planets, suns,
 wheels, pinions, flanges, housings, motors), the springs between them, and a constraint
 matrix ``T`` that expresses every physical angle through the independent coordinates
-``q`` (``θ_full = T q``). Rigid gear meshes are constraints; shafts, couplings and mounts
-are springs. The reduced equations of motion are
+``q`` (``θ_full = T q``). Rigid gear meshes are constraints; shafts, couplings, mounts,
+dampers to ground (a spring of stiffness 0) and elastic gear meshes (a spring whose twist
+is the mesh's relative angle, ``θ_parent − θ_child/r``) are springs. The reduced
+equations of motion are
 
     M q̈ + C q̇ + K q = Bᵀ u,   M = Tᵀ M_full T,  K = Σ k Tᵀ g gᵀ T,  C = Σ c Tᵀ g gᵀ T,
 
@@ -62,11 +64,11 @@ class Spring:
         Body name → coefficient; ``{"b": 1, "a": -1}`` is the twist ``θ_b − θ_a``.
         A body missing from the mechanism's coordinates is ground (angle 0).
     stiffness : float
-        [N·m/rad].
+        [N·m/rad]; 0 for a pure damper (a dashpot to ground: bearing losses).
     damping : float
         [N·m·s/rad].
     kind : str
-        ``shaft``, ``coupling``, ``mount`` … .
+        ``shaft``, ``coupling``, ``mount``, ``mesh`` (an elastic gear mesh) … .
     damping_ratio : float
         The ratio the damping was derived from (kept for reports).
     inertia : float
@@ -204,12 +206,15 @@ class Mechanism:
     def rigid_modes(self) -> np.ndarray:
         """Rigid-body modes: orthonormal columns over ``coords`` that twist no spring [rad].
 
-        The null space of the springs' twist maps (entries are gear ratios, not
-        stiffnesses): counted there, a soft mount's mode decades below the stiffest one is
-        never taken for rigid.
+        The null space of the twist maps of the springs with a stiffness (entries are gear
+        ratios, not stiffnesses): counted there, a soft mount's mode decades below the
+        stiffest one is never taken for rigid. A pure damper (stiffness 0, e.g. bearing
+        losses to ground) stores no energy: a motion that only works it is still a
+        rigid-body mode (ω = 0), damped.
         """
-        twist = np.array(list(self.twist_maps().values())).reshape(-1, len(self.coords))
-        return null_space(twist)
+        maps = self.twist_maps()
+        twist = np.array([maps[s.name] for s in self.springs if s.stiffness > 0])
+        return null_space(twist.reshape(-1, len(self.coords)))
 
     def undamped_frequencies(self) -> np.ndarray:
         """Undamped natural frequencies [Hz] from ``K v = ω² M v`` (rigid modes dropped)."""

@@ -11,19 +11,25 @@ torsional lumped models. Its :class:`opentorsion.Assembly` holds numbered nodes 
   given): a shaft of own inertia ``6·m``, which the description keeps as the shaft's
   ``inertia`` (:class:`gbpipe.model.mechanics.Spring`), never lumped on the nodes;
 * ``Gear(node, I, R, parent)``: a rigid mesh ``R_parent·θ_parent + R_child·θ_child = 0``
-  (the gear's own inertia sits on its node).
+  (the gear's own inertia sits on its node);
+* ``ElasticGear(node, I, R, k, c, parent)``: a mesh of finite stiffness, the stiffness
+  matrix ``k·g gᵀ`` with ``g = [1, R_child/R_parent]`` over (parent, child): a spring on
+  the mesh's relative angle ``θ_parent + (R_child/R_parent)·θ_child``, zero where the rigid
+  mesh's constraint holds, its torque referred to the parent (damping ``c`` alike).
 
 :func:`from_assembly` reads these into the description: nodes ``n0``, ``n1`` … by
 openTorsion number; shafts ``shaft0`` … in openTorsion order with their absolute
-``damping``; a disk's ground spring and damper a ``mounts`` entry; a mesh's ``ratio``
-``R_parent/R_child``. The description counts every angle positive in its own direction
-of rotation (ratios are magnitudes), openTorsion in one frame (a mesh reverses): node
-``n``'s angle is ``node_directions(assembly)[n]`` (±1) times openTorsion's, a change of
-variables that leaves every frequency and every energy unchanged. A loop of shafts and
-meshes that needs the reversal, a damper to ground without a spring and an
-``ElasticGear`` cannot be written in the description: each is refused by name, never
-dropped. :func:`to_assembly` writes a description back; :func:`expand` is the config hook
-``drivetrain: {opentorsion: path.py:function}``.
+``damping``; a disk's ground spring and damper a ``mounts`` entry (stiffness 0: a damper to
+ground); a mesh's ``ratio`` ``R_parent/R_child``, an elastic mesh's with its ``stiffness``
+and ``damping`` (:func:`gbpipe.model.chain.mesh_incidence`). The description counts every
+angle positive in its own direction of rotation (ratios are magnitudes), openTorsion in
+one frame (a mesh reverses): node ``n``'s angle is ``node_directions(assembly)[n]`` (±1)
+times openTorsion's, a change of variables that leaves every frequency and every energy
+unchanged. A loop of shafts and meshes that needs the reversal cannot be written in the
+description: it is refused by name, never dropped. :func:`to_assembly` writes a
+description back, :func:`export` to a TORS or Python model file; :func:`expand` is the
+config hook ``drivetrain: {opentorsion: model.json | path.py:function}``
+(:mod:`gbpipe.model.opentorsion_files`).
 
 openTorsion is optional (``pip install gbpipe[opentorsion]``): imported only here, only
 when an assembly is built or read from a file.
@@ -31,16 +37,21 @@ when an assembly is built or read from a file.
 
 from __future__ import annotations
 
-import hashlib
-import importlib.util
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
 from gbpipe.errors import ConfigError
 from gbpipe.model.chain import build_chain
+from gbpipe.model.opentorsion_files import (
+    import_opentorsion,
+    load_model_file,
+    read_tors,
+    write_model_file,
+    write_tors,
+)
 
-__all__ = ["node_directions", "from_assembly", "to_assembly", "load_assembly", "expand"]
+__all__ = ["node_directions", "from_assembly", "to_assembly", "expand", "export"]
 
 #: Where an imported assembly is named in errors.
 FIELD = "drivetrain.opentorsion"
@@ -48,17 +59,13 @@ FIELD = "drivetrain.opentorsion"
 ASSEMBLY_KEYS = ("disks", "shafts", "mounts", "gears")
 
 
-def _opentorsion(field: str) -> Any:
-    try:
-        import opentorsion  # optional dependency
-    except ImportError:
-        raise ConfigError(field, "needs openTorsion, which is not installed: "
-                          "pip install gbpipe[opentorsion]") from None
-    return opentorsion
-
-
 def _node(n: int) -> str:
     return f"n{n}"
+
+
+def _gears(assembly: Any) -> list[Any]:
+    """The rigid gears, then the elastic ones (both reverse the child)."""
+    return [*(assembly.gear_elements or []), *(assembly.elastic_gear_elements or [])]
 
 
 def node_directions(assembly: Any, field: str = FIELD) -> dict[str, int]:
@@ -89,7 +96,7 @@ def node_directions(assembly: Any, field: str = FIELD) -> dict[str, int]:
     for i, s in enumerate(assembly.shaft_elements):
         edges.setdefault(s.nl, []).append((s.nr, 1, f"shaft {i}"))
         edges.setdefault(s.nr, []).append((s.nl, 1, f"shaft {i}"))
-    for g in assembly.gear_elements or []:
+    for g in _gears(assembly):
         edges.setdefault(g.node, [])
         if g.parent is not None:
             what = f"the Gear on node {g.node} (parent node {g.parent.node})"
@@ -122,7 +129,7 @@ def from_assembly(assembly: Any, field: str = FIELD) -> dict[str, Any]:
     Parameters
     ----------
     assembly : opentorsion.Assembly
-        Disks, shafts and rigid gears.
+        Disks, shafts, rigid and elastic gears.
     field : str, default ``"drivetrain.opentorsion"``
         Key path named in errors.
 
@@ -131,36 +138,26 @@ def from_assembly(assembly: Any, field: str = FIELD) -> dict[str, Any]:
     dict
         ``{"disks", "shafts", "mounts", "gears"}``: inertia [kg·m²] per node (its disks'
         and gears'), shaft ``stiffness`` [N·m/rad], ``damping`` [N·m·s/rad] and own
-        ``inertia`` [kg·m²] (only when not 0), mounts (a disk's ``k``, ``c`` to ground),
-        gear meshes with their ``ratio`` [-] (child speed per parent speed, > 0).
+        ``inertia`` [kg·m²] (only when not 0), mounts (a disk's ``k``, ``c`` to ground;
+        ``k = 0``: a damper to ground), gear meshes with their ``ratio`` [-] (child speed
+        per parent speed, > 0), the rigid ones first, then the elastic ones with their
+        ``stiffness`` [N·m/rad] and ``damping`` [N·m·s/rad].
 
     Raises
     ------
     ConfigError
-        An element the description cannot hold, named with the fix: an ``ElasticGear``,
-        a disk's damper to ground without a spring, a loop that needs a reversal
-        (:func:`node_directions`).
+        A loop that needs a reversal (:func:`node_directions`).
     """
-    if getattr(assembly, "elastic_gear_elements", None):
-        nodes = [g.node for g in assembly.elastic_gear_elements]
-        raise ConfigError(field, f"the assembly has ElasticGear elements (nodes {nodes}): "
-                          "the drivetrain description has rigid meshes only; use Gear, or "
-                          "model the mesh stiffness as a shaft between two nodes")
     node_directions(assembly, field)
     disks = assembly.disk_elements or []
-    gears = assembly.gear_elements or []
+    gears = _gears(assembly)
     nodes = sorted({e.node for e in (*disks, *gears)}
                    | {n for s in assembly.shaft_elements for n in (s.nl, s.nr)})
     inertia = dict.fromkeys(nodes, 0.0)
     for d in disks:
         inertia[d.node] += float(d.I)
-        if d.c and not d.k:
-            raise ConfigError(field, f"the Disk on node {d.node} has a damper to ground "
-                              f"(c = {d.c} N·m·s/rad) without a spring (k = 0): a "
-                              "drivetrain mount needs a stiffness > 0; give the Disk a "
-                              "ground stiffness k or drop its c")
     # in node order (stable): the order to_assembly writes them back in
-    grounded = sorted((d for d in disks if d.k), key=lambda d: d.node)
+    grounded = sorted((d for d in disks if d.k or d.c), key=lambda d: d.node)
     mounts = [{"name": f"mount{i}", "node": _node(d.node), "stiffness": float(d.k),
                "damping": float(d.c)} for i, d in enumerate(grounded)]
     for g in gears:
@@ -177,6 +174,10 @@ def from_assembly(assembly: Any, field: str = FIELD) -> dict[str, Any]:
     meshes = [{"name": f"gear{i}", "parent": _node(g.parent.node), "child": _node(g.node),
                "ratio": float(g.parent.R) / float(g.R)}
               for i, g in enumerate(g for g in gears if g.parent is not None)]
+    elastic = [g for g in assembly.elastic_gear_elements or [] if g.parent is not None]
+    for m, g in zip(meshes[len(meshes) - len(elastic):], elastic, strict=True):
+        # ElasticGear's k·g gᵀ, g = [1, R_c/R_p]: the description's elastic mesh
+        m.update(stiffness=float(g.k), damping=float(g.c))
     return {"disks": {_node(n): {"inertia": inertia[n]} for n in nodes},
             "shafts": shafts, "mounts": mounts, "gears": meshes}
 
@@ -185,11 +186,14 @@ def to_assembly(description: Mapping[str, Any], field: str = "drivetrain") -> An
     """An openTorsion assembly of a ``drivetrain:`` description.
 
     Nodes are numbered in the order of ``disks``. Each mount's ``k`` and ``c`` go on a
-    disk of its node (mounts come back in node order); a gear node's inertia on its
-    ``Gear``; a mesh's radii are 1 at the root of a gear tree and ``R_child =
-    R_parent/ratio`` below (openTorsion reverses the child, the description does not:
-    :func:`node_directions` of the result). A ``damping_ratio`` is written as the
-    absolute damping the chain builder derives from it (docs/drivetrain.md).
+    disk of its node (mounts come back in node order; a damper to ground is a disk with
+    ``k = 0``); a rigid gear node's inertia on its ``Gear``; a mesh's radii are 1 at the
+    root of a gear tree and ``R_child = R_parent/ratio`` below (openTorsion reverses the
+    child, the description does not: :func:`node_directions` of the result). An elastic
+    mesh is an ``ElasticGear`` on its child (``k``, ``c``), its parent the parent node's
+    ``Gear`` or an ``ElasticGear`` of radius 1 without inertia (their nodes' inertia on
+    disks). A ``damping_ratio`` is written as the absolute damping the chain builder
+    derives from it (docs/drivetrain.md).
 
     Parameters
     ----------
@@ -210,7 +214,7 @@ def to_assembly(description: Mapping[str, Any], field: str = "drivetrain") -> An
         openTorsion is not installed; an entry openTorsion 0.3 cannot hold (a planetary
         stage, a gear in a rotating housing); the chain builder's refusals.
     """
-    ot = _opentorsion(field)
+    ot = import_opentorsion(field)
     if description.get("planetary"):
         raise ConfigError(f"{field}.planetary", "openTorsion 0.3 has no planetary stage")
     for i, g in enumerate(description.get("gears", [])):
@@ -228,8 +232,9 @@ def to_assembly(description: Mapping[str, Any], field: str = "drivetrain") -> An
     mounts: dict[str, list[tuple[float, float]]] = {n: [] for n in names}
     for m in description.get("mounts", []):
         mounts[m["node"]].append((float(m["stiffness"]), damping[m["name"]]))
-    parent_of = {g["child"]: g for g in description.get("gears", [])}
-    geared = set(parent_of) | {g["parent"] for g in description.get("gears", [])}
+    rigid = [g for g in description.get("gears", []) if "stiffness" not in g]
+    parent_of = {g["child"]: g for g in rigid}
+    geared = set(parent_of) | {g["parent"] for g in rigid}
     elements: dict[str, Any] = {}
 
     def _gear(name: str) -> Any:
@@ -240,13 +245,24 @@ def to_assembly(description: Mapping[str, Any], field: str = "drivetrain") -> An
                 elements[name] = ot.Gear(number[name], inertia[name], 1.0)
             else:
                 parent = _gear(g["parent"])
-                ratio = (float(g["ratio"]) if "ratio" in g
-                         else int(g["teeth"][0]) / int(g["teeth"][1]))
-                elements[name] = ot.Gear(number[name], inertia[name], parent.R / ratio,
-                                         parent=parent)
+                elements[name] = ot.Gear(number[name], inertia[name],
+                                         parent.R / _ratio(g), parent=parent)
         return elements[name]
 
     gears = [_gear(n) for n in names if n in geared]
+    holders: dict[str, Any] = {}
+    elastic = []
+    for g in description.get("gears", []):
+        if "stiffness" in g:
+            p = g["parent"]
+            if p in geared:
+                parent = elements[p]
+            else:
+                # ElasticGear needs a parent object with a radius: one without inertia
+                parent = holders.setdefault(p, ot.ElasticGear(number[p], 0.0, 1.0))
+            elastic.append(ot.ElasticGear(number[g["child"]], 0.0, parent.R / _ratio(g),
+                                          k=float(g["stiffness"]),
+                                          c=float(g.get("damping", 0.0)), parent=parent))
     disks = []
     for n in names:
         # a node's inertia on its first disk (a gear node's on its Gear), one disk per mount
@@ -257,75 +273,25 @@ def to_assembly(description: Mapping[str, Any], field: str = "drivetrain") -> An
                        k=float(s["stiffness"]), I=float(s.get("inertia", 0.0)) / 6.0,
                        c=damping[s["name"]])
               for s in description["shafts"]]
-    return ot.Assembly(shafts, disk_elements=disks, gear_elements=gears or None)
+    return ot.Assembly(shafts, disk_elements=disks, gear_elements=gears or None,
+                       elastic_gear_elements=[*holders.values(), *elastic] or None)
 
 
-def load_assembly(spec: str, base: str | Path = ".", field: str = FIELD
-                  ) -> tuple[Any, str]:
-    """Run ``path.py:function`` and return the assembly it builds.
-
-    Parameters
-    ----------
-    spec : str
-        ``path/to/file.py:function``; a relative path is taken from ``base``.
-    base : path-like, default the working directory
-        Folder of relative paths.
-    field : str
-        Key path named in errors.
-
-    Returns
-    -------
-    opentorsion.Assembly, str
-        The assembly and the SHA-256 of the file (hex; files it imports are not
-        hashed).
-
-    Raises
-    ------
-    ConfigError
-        Not ``file:function``; the file or the function missing; the file or the
-        function failing (the error quoted); a result that is not an
-        ``opentorsion.Assembly``; openTorsion not installed.
-    """
-    path_s, sep, func = str(spec).rpartition(":")
-    if not sep or not path_s or not func.isidentifier():
-        raise ConfigError(field, f"{spec!r} is not 'path/to/file.py:function'")
-    ot = _opentorsion(field)
-    path = Path(path_s)
-    path = path if path.is_absolute() else Path(base) / path
-    if not path.is_file():
-        raise ConfigError(field, f"file {path} does not exist (a relative path is taken "
-                          f"from {Path(base).resolve()})")
-    data = path.read_bytes()
-    mod_spec = importlib.util.spec_from_file_location(f"_gbpipe_ot_{path.stem}", path)
-    module = importlib.util.module_from_spec(mod_spec)
-    try:
-        mod_spec.loader.exec_module(module)
-    except Exception as exc:
-        raise ConfigError(field, f"running {path} failed: {type(exc).__name__}: {exc}"
-                          ) from exc
-    build = getattr(module, func, None)
-    if not callable(build):
-        have = sorted(n for n, v in vars(module).items()
-                      if callable(v) and not n.startswith("_"))
-        raise ConfigError(field, f"{path} has no function {func!r}; it has {have}")
-    try:
-        assembly = build()
-    except Exception as exc:
-        raise ConfigError(field, f"{path}:{func}() failed: {type(exc).__name__}: {exc}"
-                          ) from exc
-    if not isinstance(assembly, ot.Assembly):
-        raise ConfigError(field, f"{path}:{func}() returned {type(assembly).__name__}, "
-                          "not an opentorsion.Assembly")
-    return assembly, hashlib.sha256(data).hexdigest()
+def _ratio(gear: Mapping[str, Any]) -> float:
+    """A mesh's child speed per parent speed [-], from its ratio or teeth."""
+    return (float(gear["ratio"]) if "ratio" in gear
+            else int(gear["teeth"][0]) / int(gear["teeth"][1]))
 
 
 def expand(drivetrain: Mapping[str, Any], base: str | Path = ".",
            field: str = "drivetrain") -> dict[str, Any]:
-    """The ``drivetrain:`` section with ``opentorsion: file:function`` read into it.
+    """The ``drivetrain:`` section with ``opentorsion: model.json | file.py:function``
+    read into it (a TORS model by openTorsion's parser, executing nothing; a Python
+    model file run as a script: :mod:`gbpipe.model.opentorsion_files`).
 
     The assembly's ``disks``, ``shafts``, ``mounts`` and ``gears`` join the section's own
     keys (motors, sensors, excitation), and ``opentorsion`` becomes its provenance
-    ``{"source": "file:function", "sha256": …}``, so that fit key paths such as
+    ``{"source": <the spec>, "sha256": <the file's>}``, so that fit key paths such as
     ``drivetrain.shafts[8].stiffness`` address the expanded description and a second
     validation keeps them.
 
@@ -346,8 +312,9 @@ def expand(drivetrain: Mapping[str, Any], base: str | Path = ".",
     Raises
     ------
     ConfigError
-        See :func:`load_assembly`; a section that gives both the file and any of
-        ``disks``, ``shafts``, ``mounts``, ``gears``.
+        See :func:`~gbpipe.model.opentorsion_files.load_model_file` and
+        :func:`~gbpipe.model.opentorsion_files.read_tors`; a section that gives both the
+        file and any of ``disks``, ``shafts``, ``mounts``, ``gears``.
     """
     spec = drivetrain.get("opentorsion")
     if not isinstance(spec, str):
@@ -356,8 +323,44 @@ def expand(drivetrain: Mapping[str, Any], base: str | Path = ".",
     if both:
         raise ConfigError(f"{field}.{both[0]}", "given beside drivetrain.opentorsion, whose "
                           "assembly defines it: remove one of them")
-    assembly, sha = load_assembly(spec, base, f"{field}.opentorsion")
+    read = read_tors if spec.lower().endswith(".json") else load_model_file
+    assembly, sha = read(spec, base, f"{field}.opentorsion")
     out = {k: v for k, v in drivetrain.items() if k != "opentorsion"}
     out.update(from_assembly(assembly, f"{field}.opentorsion"))
     out["opentorsion"] = {"source": spec, "sha256": sha}
     return out
+
+
+def export(description: Mapping[str, Any], path: str | Path, field: str = "drivetrain"
+           ) -> None:
+    """Write a ``drivetrain:`` description as an openTorsion model file.
+
+    ``*.json``: TORS (:func:`~gbpipe.model.opentorsion_files.write_tors`: what TORS
+    cannot hold is refused by name); ``*.py``: a Python model file whose function
+    ``assembly()`` rebuilds it (every element kind). Either reads back through
+    ``drivetrain: {opentorsion: …}`` and opens in openTorsion.
+
+    Parameters
+    ----------
+    description : mapping
+        The section (docs/drivetrain.md), e.g. a config's ``drivetrain`` with a fit's
+        overlay merged.
+    path : path-like
+        The file to write; its suffix chooses the format.
+    field : str
+        Key path of the section, for errors.
+
+    Raises
+    ------
+    ConfigError
+        Another suffix; see :func:`to_assembly` and the writers.
+    """
+    suffix = Path(path).suffix.lower()
+    if suffix not in (".json", ".py"):
+        raise ConfigError(field, f"cannot write {path}: give a .json (TORS) or .py "
+                          "(Python model file) path")
+    assembly = to_assembly(description, field)
+    if suffix == ".json":
+        write_tors(assembly, path, str(description.get("name") or "drivetrain"), field)
+    else:
+        write_model_file(assembly, path)
