@@ -220,9 +220,9 @@ def campaign_config(tmp_path: Path) -> Path:
     torque loop), written as a user writes it."""
     desc = tors_line(3)
     desc["motors"] = [
-        {"name": "load", "node": "d7", "sign": -1, "controller": {
+        {"name": "load", "node": "d7", "sign": -1, "ripple": 1.0, "controller": {
             "type": "torque", "sensor": "torque_out", "kp": 0.1, "ki": 1.0}},
-        {"name": "drive", "node": "d0", "controller": {
+        {"name": "drive", "node": "d0", "ripple": 1.0, "controller": {
             "type": "speed", "sensor": "speed_drive", "kp": 2.0, "ki": 10.0}}]
     desc["sensors"] = [{"name": "speed_load", "speed": "d7"},
                        {"name": "speed_drive", "speed": "d0"},
@@ -232,8 +232,7 @@ def campaign_config(tmp_path: Path) -> Path:
         "identify": {"versions": ["clean", "raw"],
                      "pairings": [{"name": "Td_to_wl", "inputs": ["motor_torque_drive"],
                                    "outputs": ["speed_load"]}],
-                     "best": {"pairing": "Td_to_wl", "version": "raw"}},
-        "noise": {"motor_ripple": {"drive": {"broadband": 1.0}, "load": {"broadband": 1.0}}}})
+                     "best": {"pairing": "Td_to_wl", "version": "raw"}}})
     path = tmp_path / "config.yaml"
     path.write_text(yaml.safe_dump(cfg, sort_keys=False))
     return path
