@@ -66,8 +66,8 @@ MEASURED = {"ice1": {
         ("motor_torque_driver", "N*m"), ("speed_motor", "rad/s"), ("speed_load", "rad/s"),
         ("torque_output", "N*m"))}}}
 PAIRINGS = [{"name": "Td_to_wl", "inputs": ["motor_torque_driver"], "outputs": ["speed_load"]}]
-BENCH = {"drivetrain": DRIVETRAIN, "measured": MEASURED,
-         "identify": {"pairings": PAIRINGS}, "spectra": {"signal": "torque_output"}}
+#: No spectra.signal: without a tacho no spectra against rpm are made of the records.
+BENCH = {"drivetrain": DRIVETRAIN, "measured": MEASURED, "identify": {"pairings": PAIRINGS}}
 
 
 @pytest.fixture
@@ -90,6 +90,11 @@ def test_bench_config_asks_only_for_what_the_bench_has(bench_dir):
     tacho = copy.deepcopy(BENCH)
     tacho["measured"]["ice1"]["signals"]["tacho"] = {
         "file": "daq", "channel": "tacho", "quantity": "tacho", "pulses_per_rev": 1}
+    # (and then the spectra against rpm: spectra.signal names a signal of the record)
+    with pytest.raises(ConfigError) as exc:
+        load(CONFIG, tacho)
+    assert exc.value.field == "spectra.signal"
+    tacho["spectra"] = {"signal": "torque_output"}
     assert load(CONFIG, tacho)["identify"]["versions"] == ["raw", "tsa"]
     # a listed version none of the records has is refused, naming the key
     with pytest.raises(ConfigError) as exc:

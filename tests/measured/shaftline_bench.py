@@ -196,7 +196,10 @@ def _speed_sensor(desc: dict, node: str) -> str:
 def _offset(desc: dict, name: str, speeds: dict[str, float]) -> float:
     # static value of a signal at the operating point (lossless: torque x speed constant)
     sensor = next((s for s in desc["sensors"] if s["name"] == name), None)
-    load = next(m for m in desc["motors"] if m["controller"]["type"] == "torque")
+    # the motor that holds the load: the torque-controlled one, else (motors without
+    # a modelled loop, a bench record's description) the last
+    load = next((m for m in desc["motors"] if m.get("controller", {}).get("type") == "torque"),
+                desc["motors"][-1])
     power = LOAD_TORQUE * abs(speeds[load["node"]])
     if sensor is None:  # motor_torque_<motor>
         motor = next(m for m in desc["motors"] if name == f"motor_torque_{m['name']}")

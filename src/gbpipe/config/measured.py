@@ -3,9 +3,11 @@
 Every record mapping is parsed at load (:func:`gbpipe.measured.parse`: unknown keys,
 missing fields, bad gap policies), and everything the analysis will ask of the records
 that the mapping already tells is checked here, before any file is opened: the pairings
-and ``spectra.signal`` name mapped signals, TSA has a tachometer, the identification
-rate divides each record's rate. A record too short for the identification windows is
-refused when it is read (:func:`min_duration` is passed to the reader).
+and ``spectra.signal`` name mapped signals (``spectra.signal`` only of records with a
+tacho: the spectra against rpm are made of those), TSA has a tachometer, the
+identification rate divides each record's rate. A record too short for the
+identification windows is refused when it is read (:func:`min_duration` is passed to
+the reader).
 """
 
 from __future__ import annotations
@@ -73,10 +75,12 @@ def _check_signals(cfg: Mapping[str, Any], specs: Mapping[str, RecordSpec]) -> N
              for i, p in enumerate(cfg["identify"]["pairings"])
              for key in ("inputs", "outputs", "reference")
              for j, name in enumerate(p.get(key, []))]
-    named.append(("spectra.signal", cfg["spectra"]["signal"]))
     for rec, spec in specs.items():
         values = [n for n, sg in spec.signals.items() if sg.quantity != "tacho"]
-        for field, name in named:
+        # spectra against rpm are made of the records with a tacho only
+        tacho = len(values) < len(spec.signals)
+        for field, name in [*named, *([("spectra.signal", cfg["spectra"]["signal"])]
+                                      if tacho else [])]:
             if name not in values:
                 raise ConfigError(field, f"'{name}' is not a signal of measured.{rec}; "
                                   f"{suggest(name, values)}")
