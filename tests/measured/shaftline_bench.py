@@ -83,9 +83,12 @@ def example_drivetrain() -> dict[str, Any]:
 
 def _static_speeds(cfg: dict, speed: float) -> dict[str, float]:
     """Every disk's speed [rad/s] when the chain turns rigidly (no spring twisted, the
-    ground held) with its first disk at ``speed``: the null space of the twist maps."""
+    ground held) with its first disk at ``speed``: the null space of the twist maps (a
+    damper to ground, a mount of stiffness 0, holds no angle)."""
     mech = bench_chain(cfg).mechanism
-    q = linalg.null_space(np.vstack(list(mech.twist_maps().values())))[:, 0]
+    maps = mech.twist_maps()
+    q = linalg.null_space(np.vstack([maps[s.name] for s in mech.springs
+                                     if s.stiffness > 0]))[:, 0]
     full = mech.T @ q
     return {b.name: speed * v / full[0] for b, v in zip(mech.bodies, full, strict=True)}
 
