@@ -82,7 +82,7 @@ DRIVETRAIN = {"drivetrain": config["drivetrain"]} if config.get("drivetrain") el
 
 
 def all_targets():
-    if config["measured"]:
+    if not gbpipe.config.simulated(config):   # bench records: nothing is simulated
         return measured_targets() + fit_targets()
     if config.get("drivetrain"):
         # a described drivetrain's campaign: the gearbox-specific stages (kinematics,

@@ -18,7 +18,7 @@ def _fit_inputs(w):
     method = config["fit"]["method"]
     if config["fit"]["data"] == "modes":     # a modal table: no identification needed
         return {"modes": config["fit"]["modes"]["file"]}
-    if config["measured"]:
+    if not gbpipe.config.simulated(config):
         return {"identified": f"{RESULTS}/identify/measured/{w.record}_{method}.nc"}
     # the predicted identifiable band of each pairing (one design job for every record)
     return {"identified": f"{RESULTS}/identify/{w.record}_{method}.nc",

@@ -18,6 +18,8 @@ runs(cfg)
     The validated configuration of every run of a study (``runs:``), by name.
 fit_prior(cfg)
     The validated configuration a physical fit starts from (``fit.start`` merged).
+simulated(cfg)
+    True when the campaign is simulated (no ``measured:`` record): the one definition.
 measured_specs(cfg), min_duration(cfg)
     The parsed ``measured:`` bench records; the shortest record identification can use.
 ConfigError
@@ -35,9 +37,10 @@ from gbpipe.config.fit import model_signal
 from gbpipe.config.loader import fit_prior, load, merge, read_yaml, validate
 from gbpipe.config.measured import measured_specs, min_duration
 from gbpipe.config.schema_validation import SCHEMA_PATH, schema
+from gbpipe.config.scope import simulated
 from gbpipe.config.study import runs
 from gbpipe.errors import ConfigError
 
 __all__ = ["load", "validate", "merge", "schema", "order_bound", "read_yaml", "Config",
            "ConfigError", "SCHEMA_PATH", "measured_specs", "min_duration", "fit_prior",
-           "model_signal", "runs"]
+           "model_signal", "runs", "simulated"]
