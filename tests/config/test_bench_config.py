@@ -86,7 +86,7 @@ def test_bench_config_asks_only_for_what_the_bench_has(bench_dir):
     # the records have no tacho: of the listed versions, raw is one a bench record has
     assert cfg["identify"]["versions"] == ["raw"]
     assert cfg["fit"]["version"] == "raw"        # derived from them
-    # with a tacho channel, tsa too (in the listed order)
+    # with a tacho channel: the spectra against rpm
     tacho = copy.deepcopy(BENCH)
     tacho["measured"]["ice1"]["signals"]["tacho"] = {
         "file": "daq", "channel": "tacho", "quantity": "tacho", "pulses_per_rev": 1}
@@ -95,7 +95,12 @@ def test_bench_config_asks_only_for_what_the_bench_has(bench_dir):
         load(CONFIG, tacho)
     assert exc.value.field == "spectra.signal"
     tacho["spectra"] = {"signal": "torque_output"}
-    assert load(CONFIG, tacho)["identify"]["versions"] == ["raw", "tsa"]
+    # but no tsa: its cycles (tsa.tests) are orders of the paper's gearbox, not this chain's
+    assert load(CONFIG, tacho)["identify"]["versions"] == ["raw"]
+    # the paper bench's records with their tacho have it (the listed order kept)
+    paper = load(CONFIG, ROOT / "config" / "examples" / "measured.yaml",
+                 {"identify": {"versions": ["clean", "raw", "tsa", "regression"]}})
+    assert paper["identify"]["versions"] == ["raw", "tsa"]
     # a listed version none of the records has is refused, naming the key
     with pytest.raises(ConfigError) as exc:
         load(CONFIG, BENCH, {"identify": {"versions": ["clean", "tsa"]}})

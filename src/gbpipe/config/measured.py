@@ -32,9 +32,11 @@ def measured_specs(cfg: Mapping[str, Any]) -> dict[str, RecordSpec]:
 def bench_versions(cfg: Mapping[str, Any]) -> list[str]:
     """The versions of ``identify.versions`` that the bench records have, in its order.
 
-    A bench record has ``raw`` and, when a record has a tacho channel, ``tsa``
-    (:data:`gbpipe.config.scope.BENCH_VERSIONS`); ``clean`` and the removal methods beyond
-    TSA exist only for simulated records (the simulator's exact separation). The list of
+    A bench record has ``raw`` and, when a record has a tacho channel on the paper's
+    gearbox, ``tsa`` (:data:`gbpipe.config.scope.BENCH_VERSIONS`; TSA removes the cycles
+    of ``tsa.tests``, orders of the ``gearbox:`` stages, so not on a described
+    ``drivetrain:``); ``clean`` and the removal methods beyond TSA exist only for
+    simulated records (the simulator's exact separation). The list of
     ``config/config.yaml`` is the paper campaign's, so the others are left out, not
     refused: a bench config need not name its versions.
 
@@ -46,13 +48,15 @@ def bench_versions(cfg: Mapping[str, Any]) -> list[str]:
     specs = measured_specs(cfg)
     tacho = any(sg.quantity == "tacho" for spec in specs.values()
                 for sg in spec.signals.values())
-    have = [v for v in BENCH_VERSIONS if v != "tsa" or tacho]
+    tsa = tacho and not cfg.get("drivetrain")
+    have = [v for v in BENCH_VERSIONS if v != "tsa" or tsa]
     listed = list(cfg["identify"]["versions"])
     kept = [v for v in listed if v in have]
     if not kept:
         raise ConfigError("identify.versions", f"{listed}: none is a version the bench "
-                          f"records have ({have}; tsa needs a signal with quantity: tacho); "
-                          f"list {' or '.join(have)}")
+                          f"records have ({have}; tsa needs a signal with quantity: tacho "
+                          "and the paper's gearbox, whose orders it removes); list "
+                          f"{' or '.join(have)}")
     return kept
 
 
