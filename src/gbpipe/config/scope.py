@@ -15,8 +15,9 @@ from typing import Any
 
 __all__ = ["simulated", "BENCH_VERSIONS"]
 
-#: Data versions a bench record can have: ``raw``, and ``tsa`` with a tacho channel
-#: (``clean`` and the removal methods beyond TSA need the simulator's exact separation).
+#: Data versions a bench record can have: ``raw``, and ``tsa`` with a tacho channel on the
+#: paper's gearbox (``clean`` and the removal methods beyond TSA need the simulator's
+#: exact separation).
 BENCH_VERSIONS = ("raw", "tsa")
 
 
