@@ -209,6 +209,7 @@ def test_a_fitted_overlay_reruns_an_imported_chain(bench_dir):
      "drivetrain.shafts"),
     ({"shafts": "whole"}, "drivetrain.shafts"),
     ({"disks": {"flywheel": {"inertia": 1.0}}}, "drivetrain.disks.flywheel"),
+    ({"disks": {"n2": 3.5}}, "drivetrain.disks.n2"),
 ])
 def test_elements_beside_the_file_refused_by_key_path(bench_dir, given, field):
     with pytest.raises(ConfigError) as exc:

@@ -8,9 +8,9 @@ configuration and are filled in after the schema (only where the key is absent):
   ``sweep.noise`` is the sweep's complete noise section;
 * with ``measured:`` records, ``identify.versions`` ← the listed versions a bench record
   has (:func:`gbpipe.config.measured.bench_versions`: ``raw``, and ``tsa`` where the
-  records have a tacho on the paper's gearbox; ``clean`` and the removal methods exist only for simulated
-  records), so that the paper campaign's list in ``config/config.yaml`` asks nothing of
-  a bench;
+  records have a tacho on the paper's gearbox; ``clean`` and the removal methods exist
+  only for simulated records), so that the paper campaign's list in
+  ``config/config.yaml`` asks nothing of a bench;
 * ``identify.tests`` / ``identify.profiles`` ← ``campaign.tests`` / ``campaign.profiles``;
 * ``removal.tests`` ← ``tsa.tests`` (the cycles whose families the removal methods take
   off the identified tests);

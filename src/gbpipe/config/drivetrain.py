@@ -41,16 +41,25 @@ def _values_onto(elements: Any, given: Any, field: str) -> Any:
                 raise ConfigError(f"{field}.{name}", "is not a node of the assembly of "
                                   f"drivetrain.opentorsion (nodes {', '.join(out)}): its "
                                   "elements come from the file; change them there")
+            if not isinstance(entry, Mapping):
+                raise ConfigError(f"{field}.{name}", f"{entry!r}: give a mapping, e.g. "
+                                  "{inertia: 0.3} (kg·m²)")
             out[name].update(entry)
         return out
-    if not isinstance(given, list) or len(given) != len(elements):
-        n = len(given) if isinstance(given, list) else "not a list of"
-        raise ConfigError(field, f"{n} entries beside drivetrain.opentorsion, whose assembly "
-                          f"has {len(elements)}: beside the file only the values of its "
-                          "elements may be given (as a fit's overlay does, the whole list); "
-                          "add or remove elements in the file")
+    if not isinstance(given, list):
+        raise ConfigError(field, f"{given!r} beside drivetrain.opentorsion: give the whole "
+                          "list of the assembly's elements with the values to change, as a "
+                          "fit's overlay writes it")
+    if len(given) != len(elements):
+        raise ConfigError(field, f"{len(given)} entries beside drivetrain.opentorsion, whose "
+                          f"assembly has {len(elements)}: beside the file only the values of "
+                          "its elements may be given (as a fit's overlay does, the whole "
+                          "list); add or remove elements in the file")
     out = []
     for i, (have, entry) in enumerate(zip(elements, given, strict=True)):
+        if not isinstance(entry, Mapping):
+            raise ConfigError(f"{field}[{i}]", f"{entry!r}: give a mapping of the element's "
+                              f"keys ({', '.join(have)})")
         for key in STRUCTURE_KEYS:
             if key in entry and entry[key] != have.get(key):
                 raise ConfigError(f"{field}[{i}].{key}", f"{entry[key]!r} differs from the "
