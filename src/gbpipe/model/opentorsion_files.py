@@ -56,6 +56,12 @@ def _resolve(path_s: str, base: str | Path, field: str) -> Path:
     return path
 
 
+def _inside(module: Any, folder: Path) -> bool:
+    """Whether a module was loaded from a file inside ``folder``."""
+    file = getattr(module, "__file__", None)
+    return bool(file) and Path(file).resolve().is_relative_to(folder)
+
+
 def _where(exc: BaseException, folder: Path) -> str:
     """``file:line`` of the deepest frame of the traceback inside the model's folder."""
     frames = [f for f in traceback.extract_tb(exc.__traceback__)
@@ -98,6 +104,12 @@ def load_model_file(spec: str, base: str | Path = ".", field: str = "drivetrain.
     data = path.read_bytes()
     folder = path.resolve().parent
     name = f"_gbpipe_ot_{path.stem}"
+    # a module of the same name imported earlier from elsewhere (another package's
+    # `utils`) would shadow the model's own helper: hidden while the model runs
+    local = {f.stem for f in folder.glob("*.py")} | {
+        d.name for d in folder.iterdir() if (d / "__init__.py").is_file()}
+    hidden = {m: sys.modules.pop(m) for m in local & set(sys.modules)
+              if not _inside(sys.modules[m], folder)}
     before = set(sys.modules)
     sys.path.insert(0, str(folder))
     try:
@@ -124,13 +136,14 @@ def load_model_file(spec: str, base: str | Path = ".", field: str = "drivetrain.
             raise ConfigError(field, f"{path}:{func}() failed at {_where(exc, folder)}: "
                               f"{type(exc).__name__}: {exc}") from exc
     finally:
-        sys.path.remove(str(folder))
+        if str(folder) in sys.path:
+            sys.path.remove(str(folder))
         # the model's own modules (its name, its helpers) are forgotten: a second model
         # with its own utils.py must not get this one's
         for mod in set(sys.modules) - before:
-            file = getattr(sys.modules[mod], "__file__", None)
-            if mod == name or (file and Path(file).resolve().is_relative_to(folder)):
+            if mod == name or _inside(sys.modules[mod], folder):
                 del sys.modules[mod]
+        sys.modules.update(hidden)
     if not isinstance(assembly, ot.Assembly):
         code = getattr(inspect.unwrap(build), "__code__", None)
         line = code.co_firstlineno if code is not None else "?"
