@@ -6,7 +6,8 @@ openTorsion users publish a model in one of two forms (docs/opentorsion.md):
   importing a helper module beside it (``import utils``). :func:`load_model_file` runs it
   as Python runs a script: its folder first on ``sys.path`` while it runs (restored
   after, and the modules it imported from that folder forgotten, so that another model's
-  ``utils`` is never this one's), the working directory unchanged. Running a file named
+  ``utils`` is never this one's; a same-named module imported earlier from elsewhere is
+  hidden meanwhile), the working directory unchanged. Running a file named
   in a config is a trust decision of the user, as running a Snakefile is.
 * openTorsion's own JSON model format, TORS (:class:`opentorsion.Parser`): components of
   ``Disk``, ``ShaftDiscrete``, ``ShaftContinuous`` and ``GearElement`` elements.
