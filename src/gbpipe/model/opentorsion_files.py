@@ -57,16 +57,21 @@ def _resolve(path_s: str, base: str | Path, field: str) -> Path:
     return path
 
 
-def _inside(module: Any, folder: Path) -> bool:
-    """Whether a module was loaded from a file inside ``folder``."""
-    file = getattr(module, "__file__", None)
-    return bool(file) and Path(file).resolve().is_relative_to(folder)
+def _local(file: str | None, folder: Path, local: set[str]) -> bool:
+    """Whether ``file`` is the model's or one of its helpers': a module or package beside
+    it (not any file below the folder: a virtual environment may live there)."""
+    if not file:
+        return False
+    rel = Path(file).resolve()
+    if not rel.is_relative_to(folder):
+        return False
+    return Path(rel.relative_to(folder).parts[0]).stem in local
 
 
-def _where(exc: BaseException, folder: Path) -> str:
-    """``file:line`` of the deepest frame of the traceback inside the model's folder."""
+def _where(exc: BaseException, folder: Path, local: set[str]) -> str:
+    """``file:line`` of the deepest frame of the traceback in the model or its helpers."""
     frames = [f for f in traceback.extract_tb(exc.__traceback__)
-              if Path(f.filename).resolve().is_relative_to(folder)]
+              if _local(f.filename, folder, local)]
     return f"{frames[-1].filename}:{frames[-1].lineno}" if frames else "?"
 
 
@@ -110,7 +115,7 @@ def load_model_file(spec: str, base: str | Path = ".", field: str = "drivetrain.
     local = {f.stem for f in folder.glob("*.py")} | {
         d.name for d in folder.iterdir() if (d / "__init__.py").is_file()}
     hidden = {m: sys.modules.pop(m) for m in local & set(sys.modules)
-              if not _inside(sys.modules[m], folder)}
+              if not _local(getattr(sys.modules[m], "__file__", None), folder, local)}
     before = set(sys.modules)
     sys.path.insert(0, str(folder))
     try:
@@ -123,7 +128,7 @@ def load_model_file(spec: str, base: str | Path = ".", field: str = "drivetrain.
             raise ConfigError(field, f"{exc.filename}:{exc.lineno}: syntax error "
                               f"({exc.msg}); fix the file") from None
         except Exception as exc:
-            raise ConfigError(field, f"running {path} failed at {_where(exc, folder)}: "
+            raise ConfigError(field, f"running {path} failed at {_where(exc, folder, local)}: "
                               f"{type(exc).__name__}: {exc}") from exc
         build = getattr(module, func, None)
         if not callable(build):
@@ -134,7 +139,8 @@ def load_model_file(spec: str, base: str | Path = ".", field: str = "drivetrain.
         try:
             assembly = build()
         except Exception as exc:
-            raise ConfigError(field, f"{path}:{func}() failed at {_where(exc, folder)}: "
+            raise ConfigError(field, f"{path}:{func}() failed at "
+                              f"{_where(exc, folder, local)}: "
                               f"{type(exc).__name__}: {exc}") from exc
     finally:
         if str(folder) in sys.path:
@@ -142,7 +148,8 @@ def load_model_file(spec: str, base: str | Path = ".", field: str = "drivetrain.
         # the model's own modules (its name, its helpers) are forgotten: a second model
         # with its own utils.py must not get this one's
         for mod in set(sys.modules) - before:
-            if mod == name or _inside(sys.modules[mod], folder):
+            if mod == name or (mod.split(".")[0] in local and _local(
+                    getattr(sys.modules[mod], "__file__", None), folder, local)):
                 del sys.modules[mod]
         sys.modules.update(hidden)
     if not isinstance(assembly, ot.Assembly):
