@@ -104,6 +104,8 @@ def test_model_file_with_a_sibling_import(tmp_path, monkeypatch):
     # another model's utils is its own (the first one's was not kept)
     other = expand({"opentorsion": "bench_b/model.py:test_bench"})
     assert [m["damping"] for m in other["mounts"]] == [0.5, 0.5]
+    # the same model.py, another helper: another provenance (the rules rerun)
+    assert other["opentorsion"]["sha256"] != out["opentorsion"]["sha256"]
     # the chain is openTorsion's: modes against its modal_analysis
     sys.path.insert(0, str(tmp_path / "bench_a"))
     sys.modules.pop("utils")

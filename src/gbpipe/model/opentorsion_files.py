@@ -91,8 +91,9 @@ def load_model_file(spec: str, base: str | Path = ".", field: str = "drivetrain.
     Returns
     -------
     opentorsion.Assembly, str
-        The assembly and the SHA-256 of the file (hex; the helpers it imports are not
-        hashed).
+        The assembly and the SHA-256 (hex) of the file, then of each helper it imported
+        from its folder (path and bytes, in path order): the file's own hash when it
+        imports none.
 
     Raises
     ------
@@ -147,17 +148,25 @@ def load_model_file(spec: str, base: str | Path = ".", field: str = "drivetrain.
             sys.path.remove(str(folder))
         # the model's own modules (its name, its helpers) are forgotten: a second model
         # with its own utils.py must not get this one's
+        helpers = []
         for mod in set(sys.modules) - before:
-            if mod == name or (mod.split(".")[0] in local and _local(
-                    getattr(sys.modules[mod], "__file__", None), folder, local)):
+            file = getattr(sys.modules[mod], "__file__", None)
+            if mod == name or (mod.split(".")[0] in local and _local(file, folder, local)):
                 del sys.modules[mod]
+                if mod != name and file:
+                    helpers.append(Path(file).resolve())
         sys.modules.update(hidden)
     if not isinstance(assembly, ot.Assembly):
         code = getattr(inspect.unwrap(build), "__code__", None)
         line = code.co_firstlineno if code is not None else "?"
         raise ConfigError(field, f"{path}:{line}: {func}() returned "
                           f"{type(assembly).__name__}, not an opentorsion.Assembly")
-    return assembly, hashlib.sha256(data).hexdigest()
+    # the helpers the model imported are part of it: a changed utils.py reruns the rules
+    digest = hashlib.sha256(data)
+    for file in sorted(helpers):
+        digest.update(file.relative_to(folder).as_posix().encode())
+        digest.update(file.read_bytes())
+    return assembly, digest.hexdigest()
 
 
 def read_tors(path_s: str | Path, base: str | Path = ".",
