@@ -16,6 +16,7 @@ import opentorsion.tests.tests as shipped
 import pytest
 
 from gbpipe.errors import ConfigError, UnstableGain
+from gbpipe.lti import frf
 from gbpipe.model.chain import build_chain
 from gbpipe.model.opentorsion_io import from_assembly, node_directions, to_assembly
 from gbpipe.model.stability import check_stability
@@ -221,3 +222,26 @@ def test_damper_entries_checked():
     with pytest.raises(ConfigError) as err:
         build_chain(shaft)
     assert err.value.field == "drivetrain.shafts[0].stiffness"
+
+
+def test_torque_sensor_on_an_elastic_mesh():
+    # the mesh torque on the parent, k·δ + c·δ̇, per motor torque: against openTorsion's
+    # own M, C, K, gear transformation T and ElasticGear (k + jωc)·(θ_p + ρ·θ_c), by numpy
+    asm = elastic_chain(3)
+    desc = from_assembly(asm)
+    mesh = next(g for g in desc["gears"] if "stiffness" in g)
+    plant = mechanism_ss(build_chain(free(desc)).mechanism, {"drive": ("n0", 1.0)}, {},
+                         {}, {"mesh": (mesh["name"], 1.0)})
+    wheel = asm.elastic_gear_elements[1]
+    rho = wheel.R / wheel.parent.R
+    t = asm.T(asm.E())
+    f = np.geomspace(1.0, 2000.0, 40)
+    want = []
+    for w in 2 * np.pi * f:
+        theta = t @ np.linalg.solve(-w**2 * asm.M + 1j * w * asm.C + asm.K, t[0])
+        want.append((wheel.k + 1j * w * wheel.c)
+                    * (theta[wheel.parent.node] + rho * theta[wheel.node]))
+    sign = node_directions(asm)
+    want = sign["n0"] * sign[mesh["parent"]] * np.array(want)
+    got = frf(plant, f)[:, 0, 0]
+    np.testing.assert_allclose(got, want, rtol=1e-9)

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import json
 import sys
+import types
 from pathlib import Path
 
 import numpy as np
@@ -93,15 +94,21 @@ def test_model_file_with_a_sibling_import(tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
     model_dir(tmp_path / "bench_a", 0.003)
     model_dir(tmp_path / "bench_b", 0.5)
+    # another package's `utils`, imported before: it must not shadow the model's own
+    foreign = types.ModuleType("utils")
+    monkeypatch.setitem(sys.modules, "utils", foreign)
     path_before, cwd = list(sys.path), Path.cwd()
     out = expand({"opentorsion": "bench_a/model.py:test_bench"})
-    assert sys.path == path_before and Path.cwd() == cwd and "utils" not in sys.modules
+    assert sys.path == path_before and Path.cwd() == cwd and sys.modules["utils"] is foreign
     assert [m["damping"] for m in out["mounts"]] == [0.003, 0.003]
     # another model's utils is its own (the first one's was not kept)
     other = expand({"opentorsion": "bench_b/model.py:test_bench"})
     assert [m["damping"] for m in other["mounts"]] == [0.5, 0.5]
+    # the same model.py, another helper: another provenance (the rules rerun)
+    assert other["opentorsion"]["sha256"] != out["opentorsion"]["sha256"]
     # the chain is openTorsion's: modes against its modal_analysis
     sys.path.insert(0, str(tmp_path / "bench_a"))
+    sys.modules.pop("utils")
     try:
         import model as published  # as its users run it
         asm = published.test_bench()

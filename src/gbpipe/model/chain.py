@@ -202,7 +202,8 @@ def mesh_incidence(entry: Mapping[str, Any]) -> dict[str, float]:
 
     ``(θ_parent − θ_h) − (θ_child − θ_h)/r`` [rad], the mesh's relative angle referred to
     the parent (0 when the mesh turns as a rigid one: ``θ_child = θ_h + r·(θ_parent −
-    θ_h)``); its stiffness times it is the torque on the parent [N·m]. This is
+    θ_h)``); its stiffness times it is the torque the mesh transmits at the parent
+    [N·m] (``1/r`` of it at the child, which it drives). This is
     openTorsion's ``ElasticGear`` (stiffness ``k·g gᵀ``, ``g = [1, R_child/R_parent]`` in
     its reversing frame).
     """

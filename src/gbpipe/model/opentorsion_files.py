@@ -6,7 +6,8 @@ openTorsion users publish a model in one of two forms (docs/opentorsion.md):
   importing a helper module beside it (``import utils``). :func:`load_model_file` runs it
   as Python runs a script: its folder first on ``sys.path`` while it runs (restored
   after, and the modules it imported from that folder forgotten, so that another model's
-  ``utils`` is never this one's), the working directory unchanged. Running a file named
+  ``utils`` is never this one's; a same-named module imported earlier from elsewhere is
+  hidden meanwhile), the working directory unchanged. Running a file named
   in a config is a trust decision of the user, as running a Snakefile is.
 * openTorsion's own JSON model format, TORS (:class:`opentorsion.Parser`): components of
   ``Disk``, ``ShaftDiscrete``, ``ShaftContinuous`` and ``GearElement`` elements.
@@ -56,10 +57,21 @@ def _resolve(path_s: str, base: str | Path, field: str) -> Path:
     return path
 
 
-def _where(exc: BaseException, folder: Path) -> str:
-    """``file:line`` of the deepest frame of the traceback inside the model's folder."""
+def _local(file: str | None, folder: Path, local: set[str]) -> bool:
+    """Whether ``file`` is the model's or one of its helpers': a module or package beside
+    it (not any file below the folder: a virtual environment may live there)."""
+    if not file:
+        return False
+    rel = Path(file).resolve()
+    if not rel.is_relative_to(folder):
+        return False
+    return Path(rel.relative_to(folder).parts[0]).stem in local
+
+
+def _where(exc: BaseException, folder: Path, local: set[str]) -> str:
+    """``file:line`` of the deepest frame of the traceback in the model or its helpers."""
     frames = [f for f in traceback.extract_tb(exc.__traceback__)
-              if Path(f.filename).resolve().is_relative_to(folder)]
+              if _local(f.filename, folder, local)]
     return f"{frames[-1].filename}:{frames[-1].lineno}" if frames else "?"
 
 
@@ -79,8 +91,9 @@ def load_model_file(spec: str, base: str | Path = ".", field: str = "drivetrain.
     Returns
     -------
     opentorsion.Assembly, str
-        The assembly and the SHA-256 of the file (hex; the helpers it imports are not
-        hashed).
+        The assembly and the SHA-256 (hex) of the file, then of each helper it imported
+        from its folder (path and bytes, in path order): the file's own hash when it
+        imports none.
 
     Raises
     ------
@@ -98,6 +111,12 @@ def load_model_file(spec: str, base: str | Path = ".", field: str = "drivetrain.
     data = path.read_bytes()
     folder = path.resolve().parent
     name = f"_gbpipe_ot_{path.stem}"
+    # a module of the same name imported earlier from elsewhere (another package's
+    # `utils`) would shadow the model's own helper: hidden while the model runs
+    local = {f.stem for f in folder.glob("*.py")} | {
+        d.name for d in folder.iterdir() if (d / "__init__.py").is_file()}
+    hidden = {m: sys.modules.pop(m) for m in local & set(sys.modules)
+              if not _local(getattr(sys.modules[m], "__file__", None), folder, local)}
     before = set(sys.modules)
     sys.path.insert(0, str(folder))
     try:
@@ -110,7 +129,7 @@ def load_model_file(spec: str, base: str | Path = ".", field: str = "drivetrain.
             raise ConfigError(field, f"{exc.filename}:{exc.lineno}: syntax error "
                               f"({exc.msg}); fix the file") from None
         except Exception as exc:
-            raise ConfigError(field, f"running {path} failed at {_where(exc, folder)}: "
+            raise ConfigError(field, f"running {path} failed at {_where(exc, folder, local)}: "
                               f"{type(exc).__name__}: {exc}") from exc
         build = getattr(module, func, None)
         if not callable(build):
@@ -121,22 +140,33 @@ def load_model_file(spec: str, base: str | Path = ".", field: str = "drivetrain.
         try:
             assembly = build()
         except Exception as exc:
-            raise ConfigError(field, f"{path}:{func}() failed at {_where(exc, folder)}: "
+            raise ConfigError(field, f"{path}:{func}() failed at "
+                              f"{_where(exc, folder, local)}: "
                               f"{type(exc).__name__}: {exc}") from exc
     finally:
-        sys.path.remove(str(folder))
+        if str(folder) in sys.path:
+            sys.path.remove(str(folder))
         # the model's own modules (its name, its helpers) are forgotten: a second model
         # with its own utils.py must not get this one's
+        helpers = []
         for mod in set(sys.modules) - before:
             file = getattr(sys.modules[mod], "__file__", None)
-            if mod == name or (file and Path(file).resolve().is_relative_to(folder)):
+            if mod == name or (mod.split(".")[0] in local and _local(file, folder, local)):
                 del sys.modules[mod]
+                if mod != name and file:
+                    helpers.append(Path(file).resolve())
+        sys.modules.update(hidden)
     if not isinstance(assembly, ot.Assembly):
         code = getattr(inspect.unwrap(build), "__code__", None)
         line = code.co_firstlineno if code is not None else "?"
         raise ConfigError(field, f"{path}:{line}: {func}() returned "
                           f"{type(assembly).__name__}, not an opentorsion.Assembly")
-    return assembly, hashlib.sha256(data).hexdigest()
+    # the helpers the model imported are part of it: a changed utils.py reruns the rules
+    digest = hashlib.sha256(data)
+    for file in sorted(helpers):
+        digest.update(file.relative_to(folder).as_posix().encode())
+        digest.update(file.read_bytes())
+    return assembly, digest.hexdigest()
 
 
 def read_tors(path_s: str | Path, base: str | Path = ".",
