@@ -106,6 +106,10 @@ def test_bench_config_asks_only_for_what_the_bench_has(bench_dir):
         load(CONFIG, BENCH, {"identify": {"versions": ["clean", "tsa"]}})
     assert exc.value.field == "identify.versions"
     assert "tacho" in exc.value.problem
+    # what the identification itself needs is still asked: past >= future
+    with pytest.raises(ConfigError) as exc:
+        load(CONFIG, BENCH, {"identify": {"past": 10, "future": 20}})
+    assert exc.value.field == "identify.past"
 
 
 def _simulated(**keys) -> dict:

@@ -139,24 +139,30 @@ def _check_stabilization(cfg: Mapping[str, Any]) -> None:
                           f"{idc['sample_rate']:g} Hz; use lscf_orders[1] <= {lines - 2}")
 
 
-def _check_windows(cfg: Mapping[str, Any]) -> None:
+def _check_horizons(cfg: Mapping[str, Any]) -> None:
+    # of every identification, simulated or bench records: the windows and the order
     idc = cfg["identify"]
     past, fut = int(idc["past"]), int(idc["future"])
     if past < fut:
         raise ConfigError("identify.past", f"{past} samples is shorter than identify.future "
                           f"({fut}): every method needs past >= future; use past >= {fut}")
-    pairings = idc["pairings"]
-    n_out = min(len(p["outputs"]) for p in pairings)
-    channels = max(len(p["inputs"]) + len(p["outputs"]) for p in pairings)
+    n_out = min(len(p["outputs"]) for p in idc["pairings"])
     order = idc["order"]
     for method in idc["methods"]:
         # PBSID's observability matrix has `future` block rows; MOESP/N4SID use one less
         # for shift invariance. The narrowest pairing bounds the order.
         rows = fut if method == "pbsid" else fut - 1
-        if order != "auto" and order > rows * n_out:
+        if isinstance(order, int) and order > rows * n_out:
             raise ConfigError("identify.order", f"{order} exceeds what {method} can identify "
                               f"with future = {fut} and {n_out} output(s): at most "
                               f"{rows * n_out}; lower the order or raise identify.future")
+
+
+def _check_windows(cfg: Mapping[str, Any]) -> None:
+    # the simulated records' lengths against the windows
+    idc = cfg["identify"]
+    past, fut = int(idc["past"]), int(idc["future"])
+    channels = max(len(p["inputs"]) + len(p["outputs"]) for p in idc["pairings"])
     tests = [(t, p) for t in idc["tests"] for p in idc["profiles"]]
     have, test, profile = min((decimated_samples(cfg, t, p), t, p) for t, p in tests)
     for method in idc["methods"]:
@@ -202,5 +208,6 @@ def check_identify(cfg: Mapping[str, Any]) -> None:
         _check_rates(cfg)
     _check_pairings(cfg)
     _check_stabilization(cfg)
+    _check_horizons(cfg)
     if simulated(cfg):
         _check_windows(cfg)
