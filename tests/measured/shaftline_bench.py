@@ -23,6 +23,7 @@ shaftline/`` (the chain of ``config/examples/shaftline.yaml``, seed 1).
 
 from __future__ import annotations
 
+import argparse
 import sys
 from pathlib import Path
 from typing import Any, NamedTuple
@@ -32,7 +33,7 @@ import pandas as pd
 from nptdms import ChannelObject, TdmsWriter
 from scipy import linalg, signal
 
-from gbpipe.config.loader import read_yaml
+from gbpipe.config.loader import load, read_yaml
 from gbpipe.errors import UnstableGain
 from gbpipe.fit.frf_data import FrfData, sigma_from_bounds
 from gbpipe.fit.keypath import get_value, with_values
@@ -280,7 +281,25 @@ def _unit(signal_name: str) -> str:
     return "rad/s" if signal_name.startswith("speed") else "N*m"
 
 
+def main(argv: list[str]) -> None:
+    """``folder [--config overlay.yaml] [--name N] [--tacho DISK] [--perturb PATH=F ...]``:
+    the records of the overlay's chain (on config/config.yaml; default the shaft-line
+    example's), as the example's tests write them."""
+    ap = argparse.ArgumentParser(description=main.__doc__)
+    ap.add_argument("folder", nargs="?", default="shaftline")
+    ap.add_argument("--config", help="overlay with the drivetrain (its records' chain)")
+    ap.add_argument("--name", default="run1")
+    ap.add_argument("--tacho", default="load", help="disk whose speed drives the tacho")
+    ap.add_argument("--perturb", nargs="*", default=[], metavar="PATH=FACTOR")
+    ap.add_argument("--duration", type=float, default=30.0)
+    ap.add_argument("--seed", type=int, default=1)
+    args = ap.parse_args(argv)
+    cfg = load(ROOT / "config" / "config.yaml", args.config) if args.config else None
+    perturb = {p: float(f) for p, f in (item.split("=") for item in args.perturb)}
+    write_bench(Path(args.folder), cfg, perturb=perturb, name=args.name,
+                tacho_disk=args.tacho, duration=args.duration, seed=args.seed)
+    print(f"bench files written to {args.folder}/")
+
+
 if __name__ == "__main__":
-    out = Path(sys.argv[1] if len(sys.argv) > 1 else "shaftline")
-    write_bench(out)
-    print(f"bench files written to {out}/")
+    main(sys.argv[1:])
