@@ -9,19 +9,25 @@ motor excited by a band-limited random torque, sensor noise, the excitation logg
 CSV drive log and a TDMS DAQ file). The fit starts from the model file's values; the
 softened coupling's 95 % interval must hold its true value. The fitted overlay
 (``results/fit/ice1.yaml``) is then given to Snakemake as one more ``--configfile``: the
-imported chain takes the fitted values and the fit reruns from them.
+imported chain takes the fitted values and the fit reruns from them. Last, the fitted
+chain is exported (``python -m gbpipe export-opentorsion``) and reopened in openTorsion:
+the fitted value is there and openTorsion's modes equal gbpipe's to 1e-9.
 """
 
 from __future__ import annotations
 
 import shutil
 
+import numpy as np
 import yaml
 
 from gbpipe import io
+from gbpipe.__main__ import main
 from gbpipe.config import load
 from gbpipe.fit.keypath import get_value
+from gbpipe.model.opentorsion_files import load_model_file
 from tests.measured.shaftline_bench import write_bench
+from tests.model.test_opentorsion_files import gb_modes, ot_modes
 from tests.workflow.runs import copy_repo, snakemake
 
 EXAMPLE = ("config/ci.yaml", "config/examples/opentorsion_bench.yaml")
@@ -61,3 +67,10 @@ def test_opentorsion_bench_fits_and_its_overlay_reruns(tmp_path, monkeypatch):
     assert float(again.prior.values[k]) == fitted
     value = float(again.estimate.values[k])
     assert float(fit.interval_lower[k]) <= value <= float(fit.interval_upper[k])
+    # the fitted chain back to openTorsion: the value fitted, the modes of the same chain
+    out = work / "fitted_bench.py"
+    assert main(["export-opentorsion", "config/config.yaml", *EXAMPLE, str(overlay),
+                 "-o", str(out)]) == 0
+    asm, _ = load_model_file(f"{out}:assembly")
+    assert asm.shaft_elements[2].k == fitted
+    np.testing.assert_allclose(ot_modes(asm), gb_modes(rerun["drivetrain"]), rtol=1e-9)
