@@ -27,12 +27,14 @@ The record (:func:`simulate`)
     is incoherent, so some modes cannot be asked of it; and an unmeasured angle-locked
     torque on a node of the tacho shaft's line, ``sum_k a_k sin(k theta + phi_k)`` over
     3-8 distinct integer orders ``k`` of the shaft (``k f_shaft <= 350 Hz``), each
-    ``a_k`` 10^-1-10^0 of the motor torque's rms (a line 10-30 dB above the broadband
-    level per Welch bin). The shaft turns at ``f_shaft`` 5-30 Hz, rising linearly by
+    ``a_k`` 10^-1-10^0 of the motor torque's rms (a line 0-25 dB above the broadband
+    level of a 0.5 Hz bin). The shaft turns at ``f_shaft`` 5-30 Hz, rising linearly by
     0-2 % over the record. Outputs: a torque meter (the elastic torque of a random shaft)
     and the speed of a random node of the last line; each measured signal, the motor
     torque included, carries coloured noise (a 2nd-order low-pass of white noise with
-    a random corner of 20-300 Hz plus a white floor), of rms 1-5 % of the signal's.
+    a random corner of 20-300 Hz plus a white floor), of rms 0.1-1 % of the signal's (log-
+    uniform; at 1-5 % the high modes of the long chains drowned: the noise is set by the
+    signal's rms, which the low modes and the order lines hold).
     The simulation starts at rest and the first ``settle`` seconds (ten time constants of
     the slowest decaying mode, at most 20 s) are dropped, so no start transient is left.
 
@@ -277,7 +279,7 @@ def simulate(seed: int, speed: str, *, fs: float = 2000.0, duration: float = 40.
     measured = {}
     for key, v in (("motor torque", motor), ("torque meter", y[:, 0]),
                    ("output speed", y[:, 1])):
-        measured[key] = v + rng.uniform(0.01, 0.05) * v.std() * _coloured(rng, n, fs)
+        measured[key] = v + 10 ** rng.uniform(-3.0, -2.0) * v.std() * _coloured(rng, n, fs)
     signals = {"time": t, **measured}
     spec_signals = {"motor_torque": {"file": "daq", "channel": "motor torque", "unit": "N*m"},
                     "torque_meter": {"file": "daq", "channel": "torque meter", "unit": "N*m"},
