@@ -41,9 +41,10 @@ Counts are summed over the cases of a speed class (and over all cases) before di
 Tools, in one process on the same record:
 
 * gbpipe: ``gbpipe.identify.record_modes`` with a validated config of the case (the
-  pairing motor torque -> torque meter and speed; the case's orders: accepted with a tacho,
-  refused without one by today's code, which then gets none), its two diagrams ``pbsid``
-  and ``lscf`` scored apart, one CPU time for both;
+  pairing motor torque -> torque meter and speed; the case's orders in every class: a
+  version that cannot place them without a tacho refuses them, and then gets none; a
+  version whose ``record_modes`` takes ``speeds`` gets the encoder's speed signal), its
+  two diagrams ``pbsid`` and ``lscf`` scored apart, one CPU time for both;
 * pyOMA2 (1.4.3): SSI-cov on the two outputs (decimated to ``identify.sample_rate`` with
   ``scipy.signal.decimate``, each scaled to unit rms: they are in different units), its
   automatic selection by hierarchical clustering (``quick="hier_avg"``); no labels, so
@@ -62,6 +63,7 @@ Usage: ``OMP_NUM_THREADS=1 PYTHONPATH=src python benchmarks/modal_selection.py -
 from __future__ import annotations
 
 import argparse
+import inspect
 import logging
 import sys
 import tempfile
@@ -143,13 +145,20 @@ def score(f_rows: np.ndarray, kinds: np.ndarray, case: modal_cases.Case, asked: 
             "line_harmonic": int((on_line & (kinds == "harmonic")).sum())}
 
 
-def gbpipe_modes(cfg: Any, record: Any, orders: np.ndarray) -> Any:
-    """``record_modes`` with the case's orders; without a tacho, today's code refuses
-    orders (it cannot place them): then none."""
+def gbpipe_modes(cfg: Any, record: Any, case: modal_cases.Case) -> tuple[Any, bool]:
+    """``record_modes`` with the case's orders, and whether they were taken.
+
+    A version whose ``record_modes`` takes ``speeds`` gets the encoder's speed signal
+    (shaft order 1: the encoder is on the order lines' shaft). Orders a version cannot
+    place (no speed it reads) are refused with a DataError: then it gets none.
+    """
+    kw = {}
+    if case.speed == "encoder" and "speeds" in inspect.signature(record_modes).parameters:
+        kw["speeds"] = {modal_cases.ENCODER_SIGNAL: 1.0}
     try:
-        return record_modes(cfg, record, orders.tolist())
+        return record_modes(cfg, record, case.orders.tolist(), **kw), True
     except DataError:
-        return record_modes(cfg, record, [])
+        return record_modes(cfg, record, [], **kw), False
 
 
 def peer_outputs(record: Any, q: int) -> np.ndarray:
@@ -168,7 +177,7 @@ def run_case(case: modal_cases.Case, folder: Path, memory: bool) -> dict[str, An
     band = (float(s["frf"]["f_min"]), float(s["frf"]["f_max"]))
     asked = coherent(case, rec, s)
     out: dict[str, Any] = {"counts": {}, "cost": {}}
-    ds, *cost = measured(lambda: gbpipe_modes(cfg, rec, case.orders), memory)
+    (ds, out["orders_taken"]), *cost = measured(lambda: gbpipe_modes(cfg, rec, case), memory)
     out["cost"]["gbpipe (pbsid + lscf)"] = cost
     for method in ds.method.values:
         d = ds.sel({"method": method}).isel(pairing=0)
@@ -248,6 +257,9 @@ def main(argv: list[str] | None = None) -> None:
             print(f"{case.name} {case.speed:7s} {case.frequency_hz.size:2d} modes, "
                   f"{len(case.orders)} lines at {case.shaft_hz[0]:.2f} Hz; " +
                   "; ".join(f"{t}: {v}" for t, v in n.items()), flush=True)
+    for cls in SPEEDS:
+        n = [r["orders_taken"] for c, r in zip(cases, results, strict=True) if c.speed == cls]
+        print(f"{cls}: gbpipe took the orders in {sum(n)} of {len(n)} cases")
     print(f"\n{a.random} cases, seed {a.seed}, {a.duration:g} s at 2 kHz; gbpipe "
           f"{Path(record_modes.__code__.co_filename).parents[2]}; worst relative "
           "difference of gbpipe's imported undamped frequencies to openTorsion's: "

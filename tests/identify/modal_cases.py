@@ -63,6 +63,8 @@ from tests.measured.bench_campaign import tacho_voltage
 MODE_BAND, LINE_F_MAX = (5.0, 400.0), 350.0
 #: Speed classes in the proportions half / quarter / quarter.
 SPEEDS = ("tacho", "encoder", "tacho", "none")
+#: The record's speed signal [rad/s] read from the encoder angle (``encoder`` cases).
+ENCODER_SIGNAL = "shaft_speed"
 
 
 class Case(NamedTuple):
@@ -291,7 +293,7 @@ def simulate(seed: int, speed: str, *, fs: float = 2000.0, duration: float = 40.
                                  "pulses_per_rev": 1}
     elif speed == "encoder":
         signals["shaft angle"] = shaft_angle
-        spec_signals["shaft_speed"] = {"file": "daq", "channel": "shaft angle", "unit": "rad",
+        spec_signals[ENCODER_SIGNAL] = {"file": "daq", "channel": "shaft angle", "unit": "rad",
                                        "quantity": "angle"}
     spec = {"files": {"daq": {"path": f"{name}.csv", "time": "time"}}, "sample_rate": fs,
             "signals": spec_signals}
