@@ -215,9 +215,16 @@ def cluster_evidence(frequency_hz: float, damping: float, outputs: Sequence[np.n
         coherence[np.argmin(np.abs(coherence_f - f))])
     order = on_line(f, bands)
     band = f"{f - w:.1f}-{f + w:.1f} Hz"
+    # a known order line inside the band makes its PDF a line's whatever the cluster:
+    # there the speed decides, not the PDF (a mode beside a line stays a mode)
+    crossed = bands.order[(bands.low_hz <= f + w) & (bands.high_hz >= f - w)]
+    pdf_test = np.isfinite(order) or not crossed.size
     facts = [f"kurtosis {kurt:.2f} in {band} of {worst} (sinusoid 1.5, Gaussian 3; a mode "
              f"of this damping gives >= {limit:.2f} with {100 * (1 - alpha):.2f} %)",
              f"damping {zeta:.4f} (the record resolves >= {zeta_res:.5f})",
+             *([] if pdf_test else [f"the band holds order line(s) "
+                                    f"{', '.join(f'{k:.4g}' for k in crossed)}: the PDF "
+                                    "test does not decide"]),
              f"coherence <= {coh:.2f} in {band}"]
     if np.isfinite(order):
         kind, why = "harmonic", f"order {order:.4g} of {bands.source}"
@@ -225,7 +232,7 @@ def cluster_evidence(frequency_hz: float, damping: float, outputs: Sequence[np.n
         kind, why = "harmonic", (f"damping {zeta:.5f} below the record's resolution "
                                  f"{zeta_res:.5f} (decays slower than the {duration:.0f} s "
                                  "record)")
-    elif kurt < limit:
+    elif kurt < limit and pdf_test:
         kind, why = "harmonic", f"kurtosis {kurt:.2f} below {limit:.2f} (sinusoid)"
     elif coh < coherence_min:
         kind, why = "spurious", (f"coherence {coh:.2f} below coherence_min "
