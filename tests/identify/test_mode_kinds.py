@@ -128,6 +128,13 @@ def test_order_one_is_the_line_whose_multiples_hold_the_others():
     for f in lines:  # every line is on one of its orders
         assert np.any((b.low_hz <= f) & (f <= b.high_hz))
     assert "53.60 Hz" in b.source
+    # a speed signal of the shaft (no shaft_order) that holds as many lines is preferred
+    # (a measured range); one that holds none is not taken
+    b = order_one(lines, [4 / 3], 0.5, 3, 400.0, {"enc": (53.55, 53.85)})
+    assert b.shaft_hz == (53.55, 53.85) and "enc" in b.source
+    b = order_one(lines, [], 0.5, 3, 400.0, {"enc": (12.0, 12.1)})
+    assert "enc" not in b.source
+    assert order_one(np.array([]), [], 0.5, 3).order.size == 0
 
 
 # -- records with one known mode and known lines, with a tacho, a speed signal, or none --

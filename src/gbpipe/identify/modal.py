@@ -29,8 +29,13 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
+from gbpipe.errors import DataError
 from gbpipe.identify.bench_data import operating_point_settle
-from gbpipe.identify.harmonic_lines import HarmonicBands, record_harmonic_bands
+from gbpipe.identify.harmonic_lines import (
+    HarmonicBands,
+    record_harmonic_bands,
+    speed_frequency_range,
+)
 from gbpipe.identify.mode_kinds import Cluster, Evidence, PairingData, record_evidence
 from gbpipe.identify.orders import order_windows
 from gbpipe.identify.prepare import ConditionedRecord
@@ -193,9 +198,24 @@ def record_modes(cfg: Mapping[str, Any], record: xr.Dataset,
     evidence, bands = record_evidence(
         clusters, data, bands, orders, resolution,
         float(s["nonparametric"]["coherence_min"]), st["shaft_harmonics"],
-        s["frf"]["f_max"], int(cfg.get("seed", 0)))
+        s["frf"]["f_max"], int(cfg.get("seed", 0)),
+        {} if speed else _turning_shafts(record, 1.0 / resolution))
     return _dataset(s, [p["name"] for p in s["pairings"]], results, refs, bands, record,
                     kept, evidence)
+
+
+def _turning_shafts(record: xr.Dataset, segment: float) -> dict[str, tuple[float, float]]:
+    # the record's speed signals [rad/s] of a turning shaft (no shaft_order: their order
+    # is not known) and their frequency range [Hz]: candidates for the order-1 line
+    out = {}
+    for name, v in record.data_vars.items():
+        if v.attrs.get("units") == "rad/s" and v.dims == ("time",):
+            try:
+                out[str(name)] = speed_frequency_range(v.values, float(
+                    record.attrs["sample_rate"]), 1.0, segment)
+            except DataError:  # standing or reversing: no shaft speed, no candidate
+                continue
+    return out
 
 
 def _in_band(s: Mapping[str, Any], results: list[dict[str, Any]]

@@ -36,7 +36,7 @@ docs/modal.md, "Criteria".
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from typing import NamedTuple
 
 import numpy as np
@@ -244,14 +244,17 @@ def cluster_evidence(frequency_hz: float, damping: float, outputs: Sequence[np.n
 
 
 def order_one(lines_hz: np.ndarray, orders: Sequence[float], resolution_hz: float,
-              n_harmonics: int, f_max: float | None = None) -> HarmonicBands:
-    """Order lines from the record's own order-1 line, for a record with no speed signal.
+              n_harmonics: int, f_max: float | None = None,
+              speeds: Mapping[str, tuple[float, float]] | None = None) -> HarmonicBands:
+    """Order lines from the record's own order-1 line, for a record with no known speed.
 
-    The order-1 line is the line (a cluster the PDF or damping test called a sinusoid)
-    whose integer multiples ``1 .. max(n_harmonics, 1)`` and ``orders`` hold the most of
-    the other lines; of equals, the lowest. Its frequency range is that of the lines
-    within the resolution of it (the speed drifts: every method and pairing sees it at a
-    slightly other frequency).
+    The candidates for order 1 are the record's speed signals that no ``shaft_order``
+    places (their own shaft's frequency range) and the lines (clusters the PDF or damping
+    test called sinusoids). The one whose multiples ``1 .. max(n_harmonics, 1)`` and
+    ``orders`` hold the most lines is taken (of equals: a speed signal, a measured range,
+    before a line; then the lowest), when it holds one at least. A line's range is that
+    of the lines within the resolution of it (the speed drifts: every method and pairing
+    sees it at a slightly other frequency).
 
     Parameters
     ----------
@@ -259,27 +262,34 @@ def order_one(lines_hz: np.ndarray, orders: Sequence[float], resolution_hz: floa
         Frequencies of the clusters found to be sinusoids [Hz].
     orders, resolution_hz, n_harmonics, f_max
         As :func:`gbpipe.identify.harmonic_bands`.
+    speeds : mapping str -> (float, float), optional
+        Speed signals of the record -> their shaft's frequency range [Hz]
+        (:func:`gbpipe.identify.harmonic_lines.speed_frequency_range`, shaft order 1).
 
     Returns
     -------
     HarmonicBands
-        Empty when there is no line.
+        Empty when no candidate holds a line.
     """
     f = np.sort(np.asarray(lines_hz, float))
-    if not f.size:
+    k = np.concatenate([np.arange(1.0, max(int(n_harmonics), 1) + 1), list(orders)])
+    cands = [((lo, hi), f"speed signal {name} taken as order 1 (its own shaft's lines; "
+                        "no shaft_order given)") for name, (lo, hi) in (speeds or {}).items()]
+    for f1 in f:
+        same = f[np.abs(f - f1) <= resolution_hz]
+        cands.append(((float(same.min()), float(same.max())),
+                      f"the record's own order-1 line at {f1:.2f} Hz (no speed measured)"))
+    best, score = None, 0
+    for (lo, hi), source in cands:
+        hits = int(np.sum(np.any((f[:, None] >= k * lo - resolution_hz)
+                                 & (f[:, None] <= k * hi + resolution_hz), axis=1)))
+        if hits > score:
+            best, score = ((lo, hi), source), hits
+    if best is None:
         empty = np.array([])
         return HarmonicBands(empty, empty, empty, (np.nan, np.nan), "")
-    best, score = f[0], -1
-    for f1 in f:
-        k = np.concatenate([np.arange(1.0, max(int(n_harmonics), 1) + 1), list(orders)])
-        hits = sum(bool(np.any(np.abs(f - kk * f1) <= resolution_hz)) for kk in k)
-        if hits > score:
-            best, score = f1, hits
-    same = f[np.abs(f - best) <= resolution_hz]
-    b = harmonic_bands((float(same.min()), float(same.max())), orders, resolution_hz,
-                       n_harmonics, f_max)
-    return b._replace(source=f"the record's own order-1 line at {best:.2f} Hz "
-                             "(no speed measured)")
+    return harmonic_bands(best[0], orders, resolution_hz, n_harmonics,
+                          f_max)._replace(source=best[1])
 
 
 class Cluster(NamedTuple):
@@ -304,7 +314,8 @@ class PairingData(NamedTuple):
 
 def record_evidence(clusters: Sequence[Cluster], data: Sequence[PairingData],
                     bands: HarmonicBands, orders: Sequence[float], resolution_hz: float,
-                    coherence_min: float, n_harmonics: int, f_max: float, seed: int
+                    coherence_min: float, n_harmonics: int, f_max: float, seed: int,
+                    speeds: Mapping[str, tuple[float, float]] | None = None
                     ) -> tuple[list[Evidence], HarmonicBands]:
     """The evidence of every cluster of a record, and the order lines used.
 
@@ -318,6 +329,9 @@ def record_evidence(clusters: Sequence[Cluster], data: Sequence[PairingData],
     ----------
     seed : int
         Seed of the Monte Carlo draws (the config's root ``seed``).
+    speeds : mapping str -> (float, float), optional
+        Speed signals no ``shaft_order`` places -> their shaft's frequency range [Hz]:
+        candidates for order 1 (:func:`order_one`).
     """
     rng = np.random.default_rng(seed)
     ev = [cluster_evidence(c.frequency_hz, c.damping, list(data[c.pairing].y.T),
@@ -328,7 +342,7 @@ def record_evidence(clusters: Sequence[Cluster], data: Sequence[PairingData],
         return ev, bands
     lines = np.array([c.frequency_hz for c, e in zip(clusters, ev, strict=True)
                       if e.kind == "harmonic"])
-    own = order_one(lines, orders, resolution_hz, n_harmonics, f_max)
+    own = order_one(lines, orders, resolution_hz, n_harmonics, f_max, speeds)
     for k, c in enumerate(clusters):
         order = on_line(c.frequency_hz, own)
         if np.isfinite(order):
