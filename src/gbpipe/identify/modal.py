@@ -284,8 +284,9 @@ def _dataset(s: Mapping[str, Any], names: list[str], results: list[dict[str, Any
                                                 n_pole, -1)
     for j, res in enumerate(results):
         # the order the identify stage fits: the lowest that holds every mode either
-        # method found in the band; a line or a noise pole alone never sets it (the
-        # model carries the lines it needs at that order or not: they are not judged)
+        # method found in the band and the order lines of its own diagram (the model must
+        # explain the lines it is fitted on); noise poles never count, and lines alone
+        # (no mode) set no order
         modes = cl["f"][:, j][kind[:, j] == "mode"]
         for i, method in enumerate(methods):
             r = res[method]
@@ -293,8 +294,10 @@ def _dataset(s: Mapping[str, Any], names: list[str], results: list[dict[str, Any
                 status[i, j] = r
                 continue
             order_of[i, :len(r.orders)] = r.orders
-            model_order[i, j] = lowest_order(r.orders, r.poles, modes,
-                                             s["stabilization"]["frequency_tolerance"])
+            lines = cl["f"][i, j][kind[i, j] == "harmonic"]
+            model_order[i, j] = modes.size and lowest_order(
+                r.orders, r.poles, np.concatenate([modes, lines]),
+                s["stabilization"]["frequency_tolerance"])
             if not modes.size:
                 status[i, j] = (f"no mode: no cluster of stable poles in {f_lo:g}-{f_hi:g} Hz "
                                 "that is a mode (table evidence)")
@@ -305,7 +308,8 @@ def _dataset(s: Mapping[str, Any], names: list[str], results: list[dict[str, Any
     data = {
         "model_order": (("method", "pairing"), model_order,
                         {"units": one, "long_name": "model order the identify stage uses "
-                         "(lowest order holding every mode of either method; 0: none)"}),
+                         "(lowest order holding every mode of either method and its own "
+                         "lines; 0: no mode)"}),
         "status": (("method", "pairing"), status,
                    {"units": one, "long_name": "ok, or why the diagram failed or found "
                     "no mode"}),
