@@ -249,10 +249,11 @@ def order_one(lines_hz: np.ndarray, orders: Sequence[float], resolution_hz: floa
     """Order lines from the record's own order-1 line, for a record with no known speed.
 
     The candidates for order 1 are the record's speed signals that no ``shaft_order``
-    places (their own shaft's frequency range) and the lines (clusters the PDF or damping
-    test called sinusoids). The one whose multiples ``1 .. max(n_harmonics, 1)`` and
-    ``orders`` hold the most lines is taken (of equals: a speed signal, a measured range,
-    before a line; then the lowest), when it holds one at least. A line's range is that
+    places (their own shaft's frequency range) and each line (a cluster the PDF or damping
+    test called a sinusoid) taken as each order of the family ``1 .. max(n_harmonics, 1)``
+    and ``orders`` in turn. The candidate whose family holds the most lines is taken (of
+    equals: a speed signal, a measured range, before a line; then the first line, lowest,
+    as the lowest order), when it holds one at least. A line's range is that
     of the lines within the resolution of it (the speed drifts: every method and pairing
     sees it at a slightly other frequency).
 
@@ -275,10 +276,12 @@ def order_one(lines_hz: np.ndarray, orders: Sequence[float], resolution_hz: floa
     k = np.concatenate([np.arange(1.0, max(int(n_harmonics), 1) + 1), list(orders)])
     cands = [((lo, hi), f"speed signal {name} taken as order 1 (its own shaft's lines; "
                         "no shaft_order given)") for name, (lo, hi) in (speeds or {}).items()]
-    for f1 in f:
-        same = f[np.abs(f - f1) <= resolution_hz]
-        cands.append(((float(same.min()), float(same.max())),
-                      f"the record's own order-1 line at {f1:.2f} Hz (no speed measured)"))
+    for f_line in f:
+        same = f[np.abs(f - f_line) <= resolution_hz]
+        for kk in np.unique(k):  # the line may be any order of the family
+            cands.append(((float(same.min()) / kk, float(same.max()) / kk),
+                          f"the record's own order-1 line at {f_line / kk:.2f} Hz (the line "
+                          f"at {f_line:.2f} Hz as order {kk:.4g}; no speed measured)"))
     best, score = None, 0
     for (lo, hi), source in cands:
         hits = int(np.sum(np.any((f[:, None] >= k * lo - resolution_hz)
