@@ -11,14 +11,14 @@ from scipy import signal, stats
 from gbpipe.config import load, merge
 from gbpipe.errors import DataError
 from gbpipe.identify import modes_table_rows, record_modes
-from gbpipe.identify.harmonic_lines import HarmonicBands, speed_frequency_range
+from gbpipe.identify.harmonic_lines import HarmonicBands, order_one, speed_frequency_range
 from gbpipe.identify.mode_kinds import (
     ALPHA,
     band_envelope,
     cluster_evidence,
     kurtosis_limit,
     kurtosis_statistic,
-    order_one,
+    peak_drift,
     resolvable_damping,
 )
 from tests.conftest import CONFIG
@@ -80,6 +80,24 @@ def test_kurtosis_limit_holds_for_modes_and_not_for_lines(f0, zeta):
     amp = np.sqrt(2 * 10 * 2 * np.mean(np.abs(zn) ** 2))  # A^2 / 2 = 10x the band's
     z, _ = band_envelope(y + amp * np.sin(2 * np.pi * f0 * t), FS, f0, w)
     assert float(kurtosis_statistic(z)) < limit
+
+
+def test_a_line_sweeping_through_the_band_drifts_a_mode_does_not():
+    """A line whose shaft speeds up 1 % (254 -> 256.5 Hz, through a 1 Hz band: its PDF
+    there is bursty, not a sinusoid's) has a monotonic peak track; the peaks of modes
+    scipy simulates have none (p above ALPHA in each of 20 records)."""
+    rng = np.random.default_rng(6)
+    n = int(40 * FS)
+    t = np.arange(n) / FS
+    f_line = 254.0 * (1 + 0.01 * t / t[-1])
+    x = np.sin(2 * np.pi * np.cumsum(f_line) / FS) + 0.3 * rng.standard_normal(n)
+    rho, p, segs = peak_drift(x, FS, 255.2, 1.0, 2.0)
+    assert segs == 20 and rho > 0.9 and p < ALPHA
+    z, _ = band_envelope(x, FS, 255.2, 0.5)
+    assert float(kurtosis_statistic(z)) > 2.5  # the PDF test alone would not see it
+    for _ in range(20):
+        y = _sdof(111.0, 0.005, n, rng)
+        assert peak_drift(y, FS, 111.0, 1.11, 2.0)[1] > ALPHA
 
 
 def test_damping_below_the_records_resolution_is_a_line():

@@ -29,7 +29,7 @@ from gbpipe.errors import ConfigError, DataError
 from gbpipe.harmonics import check_pulse_times
 
 __all__ = ["HarmonicBands", "shaft_frequency_range", "speed_frequency_range", "harmonic_bands",
-           "record_harmonic_bands", "label_poles", "KINDS"]
+           "record_harmonic_bands", "order_one", "label_poles", "KINDS"]
 
 #: The labels :func:`label_poles` gives (a cluster can also be ``spurious``:
 #: :mod:`gbpipe.identify.mode_kinds`).
@@ -229,6 +229,58 @@ def record_harmonic_bands(record: xr.Dataset, orders: Sequence[float], resolutio
                         "speed or angle signal its shaft_order, or remove orders")
     empty = np.array([])
     return HarmonicBands(empty, empty, empty, (np.nan, np.nan))
+
+
+def order_one(lines_hz: np.ndarray, orders: Sequence[float], resolution_hz: float,
+              n_harmonics: int, f_max: float | None = None,
+              speeds: Mapping[str, tuple[float, float]] | None = None) -> HarmonicBands:
+    """Order lines from the record's own order-1 line, for a record with no known speed.
+
+    The candidates for order 1 are the record's speed signals that no ``shaft_order``
+    places (their own shaft's frequency range) and each line (a cluster the PDF or damping
+    test called a sinusoid) taken as each order of the family ``1 .. max(n_harmonics, 1)``
+    and ``orders`` in turn. The candidate whose family holds the most lines is taken (of
+    equals: a speed signal, a measured range, before a line; then the first line, lowest,
+    as the lowest order), when it holds one at least. A line's range is that
+    of the lines within the resolution of it (the speed drifts: every method and pairing
+    sees it at a slightly other frequency).
+
+    Parameters
+    ----------
+    lines_hz : ndarray
+        Frequencies of the clusters found to be sinusoids [Hz].
+    orders, resolution_hz, n_harmonics, f_max
+        As :func:`gbpipe.identify.harmonic_bands`.
+    speeds : mapping str -> (float, float), optional
+        Speed signals of the record -> their shaft's frequency range [Hz]
+        (:func:`gbpipe.identify.harmonic_lines.speed_frequency_range`, shaft order 1).
+
+    Returns
+    -------
+    HarmonicBands
+        Empty when no candidate holds a line.
+    """
+    f = np.sort(np.asarray(lines_hz, float))
+    k = np.concatenate([np.arange(1.0, max(int(n_harmonics), 1) + 1), list(orders)])
+    cands = [((lo, hi), f"speed signal {name} taken as order 1 (its own shaft's lines; "
+                        "no shaft_order given)") for name, (lo, hi) in (speeds or {}).items()]
+    for f_line in f:
+        same = f[np.abs(f - f_line) <= resolution_hz]
+        for kk in np.unique(k):  # the line may be any order of the family
+            cands.append(((float(same.min()) / kk, float(same.max()) / kk),
+                          f"the record's own order-1 line at {f_line / kk:.2f} Hz (the line "
+                          f"at {f_line:.2f} Hz as order {kk:.4g}; no speed measured)"))
+    best, score = None, 0
+    for (lo, hi), source in cands:
+        hits = int(np.sum(np.any((f[:, None] >= k * lo - resolution_hz)
+                                 & (f[:, None] <= k * hi + resolution_hz), axis=1)))
+        if hits > score:
+            best, score = ((lo, hi), source), hits
+    if best is None:
+        empty = np.array([])
+        return HarmonicBands(empty, empty, empty, (np.nan, np.nan), "")
+    return harmonic_bands(best[0], orders, resolution_hz, n_harmonics,
+                          f_max)._replace(source=best[1])
 
 
 def label_poles(frequency_hz: np.ndarray, bands: HarmonicBands) -> np.ndarray:

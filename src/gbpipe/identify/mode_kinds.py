@@ -8,7 +8,7 @@ A stable cluster of a stabilization diagram is one of three things:
 
     * the **speed**: the cluster lies on an order line of a measured speed
       (:mod:`gbpipe.identify.harmonic_lines`), or of the record's own order-1 line
-      (:func:`order_one`);
+      (:func:`gbpipe.identify.harmonic_lines.order_one`);
     * the **PDF** of the response in the cluster's band (Brincker, Andersen & Møller,
       "Identification of harmonics in operational modal analysis", IMAC 2000; Jacobs et
       al., "Harmonic detection in OMA", ISMA 2008): the band-passed response of a mode
@@ -20,6 +20,11 @@ A stable cluster of a stabilization diagram is one of three things:
       frequency and damping, driven by white noise, seen through the same band filter
       over the same duration": the sampling spread for the band's number of independent
       samples, drawn by Monte Carlo on the band's own correlation, not a tuned number;
+    * the **drift**: a line follows its shaft's speed, so the peak in the cluster's band
+      moves with time along a monotonic track (a run-up, a slow drift: the line sweeps
+      through the band and its PDF there is bursty, not a sinusoid's); a mode's peak
+      jitters at random. Spearman's rank correlation of the peak frequency of each
+      Welch segment with time (:func:`peak_drift`), p below ``ALPHA``;
     * the **damping**: a half-power bandwidth ``2 ζ f`` narrower than the record's
       frequency resolution ``1 / T`` (a decay longer than the record) cannot be told from
       a line: ``ζ < 1 / (2 f T)``.
@@ -42,10 +47,10 @@ from typing import NamedTuple
 import numpy as np
 from scipy import signal, stats
 
-from gbpipe.identify.harmonic_lines import HarmonicBands, harmonic_bands
+from gbpipe.identify.harmonic_lines import HarmonicBands, order_one
 
 __all__ = ["KINDS", "ALPHA", "Evidence", "band_envelope", "kurtosis_statistic",
-           "kurtosis_limit", "resolvable_damping", "cluster_evidence", "order_one",
+           "kurtosis_limit", "peak_drift", "resolvable_damping", "cluster_evidence",
            "on_line", "Cluster", "PairingData", "record_evidence"]
 
 #: The kinds of a cluster.
@@ -160,6 +165,37 @@ def kurtosis_limit(f0: float, damping: float, half_width: float, fs_z: float, n:
     return float(np.exp(lg.mean() - stats.norm.isf(alpha) * lg.std(ddof=1)))
 
 
+def peak_drift(x: np.ndarray, fs: float, f0: float, half_width: float, segment: float
+               ) -> tuple[float, float, int]:
+    """Does the spectral peak in ``f0 ± half_width`` drift with time, as a shaft's line does?
+
+    The peak frequency of each non-overlapping Hann segment of ``segment`` [s] (4x
+    zero-padded) within the band, against time: Spearman's rank correlation and its
+    two-sided p-value (:func:`scipy.stats.spearmanr`). A line follows its shaft's speed,
+    which drifts smoothly: a monotonic track; a mode's peak jitters at random about its
+    frequency (no trend under the hypothesis of a mode: p uniform).
+
+    Returns
+    -------
+    rho : float
+        Rank correlation of peak frequency and time [1] (NaN: a constant track).
+    p : float
+        Its p-value [1] (1 for a constant track).
+    n : int
+        Segments [1].
+    """
+    n = int(round(segment * fs))
+    f, _, pxx = signal.spectrogram(x - x.mean(), fs, nperseg=n, noverlap=0, nfft=4 * n)
+    band = np.abs(f - f0) <= half_width
+    if pxx.shape[1] < 4 or band.sum() < 2:
+        return np.nan, 1.0, pxx.shape[1]
+    track = f[band][np.argmax(pxx[band], axis=0)]
+    if np.ptp(track) == 0:
+        return np.nan, 1.0, track.size
+    res = stats.spearmanr(np.arange(track.size), track)
+    return float(res.statistic), float(res.pvalue), track.size
+
+
 def resolvable_damping(frequency_hz: float, duration_s: float) -> float:
     """Smallest damping ratio a record of ``duration_s`` [s] resolves at ``frequency_hz``
     [Hz]: half-power bandwidth ``2 ζ f`` equal to the resolution ``1 / T`` [1]."""
@@ -204,12 +240,16 @@ def cluster_evidence(frequency_hz: float, damping: float, outputs: Sequence[np.n
     zeta_res = resolvable_damping(f, duration)
     alpha = ALPHA / len(outputs)
     kurt, limit, worst = np.inf, np.nan, ""
+    drift = (np.nan, 1.0, 0, "")
     for x, name in zip(outputs, names, strict=True):
         z, fs_z = band_envelope(np.asarray(x, float), fs, f, w)
         k = float(kurtosis_statistic(z))
         lim = kurtosis_limit(f, max(zeta, zeta_res), w, fs_z, z.size, alpha, rng)
         if k - lim < kurt - (limit if np.isfinite(limit) else 0.0):
             kurt, limit, worst = k, lim, name
+        d = peak_drift(np.asarray(x, float), fs, f, w, 1.0 / resolution_hz)
+        if d[1] < drift[1]:
+            drift = (*d, name)
     near = np.abs(coherence_f - f) <= w
     coh = float(np.max(coherence[near])) if near.any() else float(
         coherence[np.argmin(np.abs(coherence_f - f))])
@@ -221,6 +261,8 @@ def cluster_evidence(frequency_hz: float, damping: float, outputs: Sequence[np.n
     pdf_test = np.isfinite(order) or not crossed.size
     facts = [f"kurtosis {kurt:.2f} in {band} of {worst} (sinusoid 1.5, Gaussian 3; a mode "
              f"of this damping gives >= {limit:.2f} with {100 * (1 - alpha):.2f} %)",
+             f"peak frequency vs time in {band} of {drift[3] or worst}: Spearman "
+             f"{drift[0]:.2f}, p {drift[1]:.1e} over {drift[2]} segments",
              f"damping {zeta:.4f} (the record resolves >= {zeta_res:.5f})",
              *([] if pdf_test else [f"the band holds order line(s) "
                                     f"{', '.join(f'{k:.4g}' for k in crossed)}: the PDF "
@@ -234,6 +276,10 @@ def cluster_evidence(frequency_hz: float, damping: float, outputs: Sequence[np.n
                                  "record)")
     elif kurt < limit and pdf_test:
         kind, why = "harmonic", f"kurtosis {kurt:.2f} below {limit:.2f} (sinusoid)"
+    elif drift[1] < alpha and pdf_test:
+        kind, why = "harmonic", (f"its peak drifts with time (Spearman {drift[0]:.2f}, p "
+                                 f"{drift[1]:.1e} < {alpha:.1e}): a line following a shaft's "
+                                 "speed")
     elif coh < coherence_min:
         kind, why = "spurious", (f"coherence {coh:.2f} below coherence_min "
                                  f"{coherence_min:g} in {band} (noise fitted)")
@@ -241,58 +287,6 @@ def cluster_evidence(frequency_hz: float, damping: float, outputs: Sequence[np.n
         kind, why = "mode", "Gaussian in its band, resolved, coherent" + (
             f", on no order line of {bands.source}" if bands.source else "")
     return Evidence(kind, f"{why}; " + "; ".join(facts), kurt, limit, coh, order)
-
-
-def order_one(lines_hz: np.ndarray, orders: Sequence[float], resolution_hz: float,
-              n_harmonics: int, f_max: float | None = None,
-              speeds: Mapping[str, tuple[float, float]] | None = None) -> HarmonicBands:
-    """Order lines from the record's own order-1 line, for a record with no known speed.
-
-    The candidates for order 1 are the record's speed signals that no ``shaft_order``
-    places (their own shaft's frequency range) and each line (a cluster the PDF or damping
-    test called a sinusoid) taken as each order of the family ``1 .. max(n_harmonics, 1)``
-    and ``orders`` in turn. The candidate whose family holds the most lines is taken (of
-    equals: a speed signal, a measured range, before a line; then the first line, lowest,
-    as the lowest order), when it holds one at least. A line's range is that
-    of the lines within the resolution of it (the speed drifts: every method and pairing
-    sees it at a slightly other frequency).
-
-    Parameters
-    ----------
-    lines_hz : ndarray
-        Frequencies of the clusters found to be sinusoids [Hz].
-    orders, resolution_hz, n_harmonics, f_max
-        As :func:`gbpipe.identify.harmonic_bands`.
-    speeds : mapping str -> (float, float), optional
-        Speed signals of the record -> their shaft's frequency range [Hz]
-        (:func:`gbpipe.identify.harmonic_lines.speed_frequency_range`, shaft order 1).
-
-    Returns
-    -------
-    HarmonicBands
-        Empty when no candidate holds a line.
-    """
-    f = np.sort(np.asarray(lines_hz, float))
-    k = np.concatenate([np.arange(1.0, max(int(n_harmonics), 1) + 1), list(orders)])
-    cands = [((lo, hi), f"speed signal {name} taken as order 1 (its own shaft's lines; "
-                        "no shaft_order given)") for name, (lo, hi) in (speeds or {}).items()]
-    for f_line in f:
-        same = f[np.abs(f - f_line) <= resolution_hz]
-        for kk in np.unique(k):  # the line may be any order of the family
-            cands.append(((float(same.min()) / kk, float(same.max()) / kk),
-                          f"the record's own order-1 line at {f_line / kk:.2f} Hz (the line "
-                          f"at {f_line:.2f} Hz as order {kk:.4g}; no speed measured)"))
-    best, score = None, 0
-    for (lo, hi), source in cands:
-        hits = int(np.sum(np.any((f[:, None] >= k * lo - resolution_hz)
-                                 & (f[:, None] <= k * hi + resolution_hz), axis=1)))
-        if hits > score:
-            best, score = ((lo, hi), source), hits
-    if best is None:
-        empty = np.array([])
-        return HarmonicBands(empty, empty, empty, (np.nan, np.nan), "")
-    return harmonic_bands(best[0], orders, resolution_hz, n_harmonics,
-                          f_max)._replace(source=best[1])
 
 
 class Cluster(NamedTuple):
