@@ -226,3 +226,17 @@ def test_kinds_of_a_record_with_known_mode_and_lines(speed):
     held = [all(np.nanmin(np.abs(p - fk), initial=np.inf) <= tol * fk for fk in need)
             for p in d.pole_frequency.values]
     assert int(d.model_order) == int(d.order.values[held.index(True)])
+
+
+def test_lines_alone_set_no_model_order():
+    """With the band ending below the 40 Hz mode, the diagrams hold only the order lines
+    at 11 and 22 Hz: they are labelled and reported, but set no model order."""
+    cfg = merge(load(CONFIG), {"campaign": {"settle": 1.0}, "identify": {
+        "versions": ["raw"], "frf": {"f_max": 35.0},
+        "pairings": [{"name": "T_w", "inputs": ["torque"], "outputs": ["speed"]}]}})
+    ds = record_modes(cfg, _lines_record("tacho"))
+    d = ds.sel({"method": "pbsid"}).isel(pairing=0)
+    f = d.mode_frequency.values
+    assert np.isfinite(f).sum() >= 1
+    assert set(d.mode_kind.values[np.isfinite(f)]) == {"harmonic"}
+    assert int(d.model_order) == 0 and str(d.status.values).startswith("no mode")
