@@ -30,13 +30,12 @@ Usage: ``OMP_NUM_THREADS=1 python benchmarks/modal.py`` (peers: ``requirements-b
 from __future__ import annotations
 
 import logging
-import time
-import tracemalloc
 from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
 import scipy.signal
+from modal_peers import measured, pyoma2_ssicov, sdypy_lscf
 
 from gbpipe import simulate
 from gbpipe.config import load
@@ -115,48 +114,6 @@ def gbpipe_lscf(frf, dt):
     return [(m.frequency_hz, m.damping) for m in st.clusters]
 
 
-def pyoma2_ssicov(y, dt):
-    from pyoma2.algorithms.data.run_params import Clustering
-    from pyoma2.algorithms.ssi import SSI
-    from pyoma2.setup.single import SingleSetup
-
-    setup = SingleSetup(np.array(y, copy=True), fs=1.0 / dt)
-    ssi = SSI(name="ssicov", method="cov", br=31, ordmax=max(ORDERS))
-    setup.add_algorithms(ssi)
-    setup.run_all()
-    ssi.add_clustering(Clustering(name="hier", quick="hier_avg"))
-    ssi.run_all_clustering()
-    res = ssi.result.clustering_results["hier"]
-    return sorted(zip(np.atleast_1d(res.Fn).tolist(), np.atleast_1d(res.Xi).tolist(),
-                      strict=True))
-
-
-def sdypy_lscf(frf, approx_hz):
-    from sdypy import EMA
-
-    h = frf.frf.reshape(frf.frf.shape[0], -1).T  # (FRFs, frequency)
-    model = EMA.Model(h, frf.frequency, lower=frf.frequency[1], upper=frf.frequency[-1],
-                      pol_order_high=LSCF_POLES // 2, frf_form="receptance")
-    model.get_poles(method="lscf", show_progress=False)
-    model.select_closest_poles(list(approx_hz))
-    # A frequency it found no stable pole near comes back as 0: not a mode.
-    return sorted((f, z) for f, z in zip(np.asarray(model.nat_freq).tolist(),
-                                         np.asarray(model.nat_xi).tolist(), strict=True)
-                  if f > 0)
-
-
-def measured(fn: Callable[[], list]) -> tuple[list, float, float, float]:
-    """Result, CPU [s], wall [s], peak traced memory [MiB] (second run, untimed)."""
-    c0, w0 = time.process_time(), time.perf_counter()
-    out = fn()
-    cpu, wall = time.process_time() - c0, time.perf_counter() - w0
-    tracemalloc.start()
-    fn()
-    peak = tracemalloc.get_traced_memory()[1] / 2**20
-    tracemalloc.stop()
-    return out, cpu, wall, peak
-
-
 def report(name: str, record: Callable) -> None:
     u, y, dt, f_ref, method = record()
     frf = welch_frf(u, y, 1.0 / dt, nperseg=8192)
@@ -166,9 +123,9 @@ def report(name: str, record: Callable) -> None:
     results = {}
     results["gbpipe " + method] = measured(lambda: gbpipe_subspace(u, y, dt, method))
     results["gbpipe lscf"] = measured(lambda: gbpipe_lscf(frf, dt))
-    results["pyOMA2 ssi-cov"] = measured(lambda: pyoma2_ssicov(y, dt))
+    results["pyOMA2 ssi-cov"] = measured(lambda: pyoma2_ssicov(y, dt, max(ORDERS)))
     approx = [f for f, _ in results["gbpipe " + method][0]]
-    results["sdypy-EMA lscf"] = measured(lambda: sdypy_lscf(frf, approx))
+    results["sdypy-EMA lscf"] = measured(lambda: sdypy_lscf(frf, approx, LSCF_POLES))
     for tool, (found, cpu, wall, peak) in results.items():
         print(f"{tool:16s} cpu {cpu:7.2f} s  wall {wall:7.2f} s  peak {peak:8.1f} MiB  "
               f"{len(found)} modes")

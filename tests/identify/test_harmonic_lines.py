@@ -93,3 +93,34 @@ def test_measured_orders_key():
     for bad in ([0], [float("inf")], "23", [True]):
         with pytest.raises(ConfigError, match="measured.record.orders"):
             parse(dict(spec, orders=bad))
+
+
+def test_record_bands_from_a_speed_signal():
+    # no tacho: a speed signal of a shaft at 3x the reference, steady at 3 x 8 Hz
+    fs = 200.0
+    t = np.arange(int(20 * fs)) / fs
+    rec = xr.Dataset({"w": ("time", np.full(t.size, 3 * 2 * np.pi * 8.0), {"units": "rad/s"}),
+                      "x": ("time", np.zeros(t.size), {"units": "N m"})},
+                     attrs={"sample_rate": fs})
+    b = record_harmonic_bands(rec, [5.0], 0.5, 2, speeds={"w": 3.0})
+    assert b.shaft_hz == pytest.approx((8.0, 8.0))
+    assert b.order.tolist() == [1.0, 2.0, 5.0] and "w" in b.source
+    assert b.low_hz.tolist() == pytest.approx([7.5, 15.5, 39.5])
+    with pytest.raises(DataError, match="must be a speed"):
+        record_harmonic_bands(rec, [5.0], 0.5, 2, speeds={"x": 1.0})
+
+
+def test_shaft_order_key():
+    spec = {"files": {"a": {"path": "x.csv", "time": "t"}}, "sample_rate": 100.0,
+            "signals": {"w": {"file": "a", "channel": "c", "unit": "rpm",
+                              "shaft_order": 2},
+                        "x": {"file": "a", "channel": "d"}}}
+    assert parse(spec).speeds == {"w": 2.0}
+    for bad in (0, -1.0, "2", True):
+        s = {**spec, "signals": {"w": {**spec["signals"]["w"], "shaft_order": bad}}}
+        with pytest.raises(ConfigError, match="shaft_order"):
+            parse(s)
+    s = {**spec, "signals": {"t": {"file": "a", "channel": "c", "quantity": "tacho",
+                                   "pulses_per_rev": 1, "shaft_order": 1}}}
+    with pytest.raises(ConfigError, match="not a shaft speed"):
+        parse(s)

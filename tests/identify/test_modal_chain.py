@@ -103,17 +103,26 @@ def test_order_lines_are_labelled_harmonic(chain_modes):
     assert n_lines >= 1  # a line does make a stable cluster: the labels were tested
 
 
-def test_model_order_holds_every_cluster(chain_modes):
+def test_model_order_is_the_lowest_holding_every_mode_and_its_lines(chain_modes):
+    """The order holds every mode either method found and the order lines of its own
+    diagram, and no lower order does: noise poles do not choose it."""
     _, cfg, ds, _, _ = chain_modes
     tol = cfg["identify"]["stabilization"]["frequency_tolerance"]
-    for method in ds.method.values:
+    kind = ds.mode_kind.values[:, 0]
+    modes = ds.mode_frequency.values[:, 0][kind == "mode"]
+    assert modes.size >= 3
+    for i, method in enumerate(ds.method.values):
         d = ds.sel({"method": method}).isel(pairing=0)
-        order = int(d.model_order)
-        rows = np.flatnonzero(d.order.values == order)
+        need = np.concatenate([modes, d.mode_frequency.values[kind[i] == "harmonic"]])
+
+        def holds(poles, need=need):
+            return all(np.nanmin(np.abs(poles - fk), initial=np.inf) <= tol * fk
+                       for fk in need)
+
+        rows = np.flatnonzero(d.order.values == int(d.model_order))
         assert rows.size == 1
-        poles = d.pole_frequency.values[rows[0]]
-        for fk in d.mode_frequency.values[np.isfinite(d.mode_frequency.values)]:
-            assert np.nanmin(np.abs(poles - fk)) <= tol * fk
+        assert holds(d.pole_frequency.values[rows[0]])
+        assert not any(holds(d.pole_frequency.values[k]) for k in range(rows[0]))
     # the table: one row per cluster, the documented columns in order
     rows = modes_table_rows(ds, "chain")
     assert rows and all(tuple(r) == TABLE_COLUMNS for r in rows)

@@ -90,8 +90,8 @@ def test_failed_diagram_says_why_and_the_other_stands(one_mode, monkeypatch):
     assert np.any(np.abs(lscf.mode_frequency.values - F0) <= 0.01 * F0)
 
 
-def test_orders_without_tacho_refused_before_any_diagram(one_mode, monkeypatch):
+def test_a_speed_that_is_not_a_speed_refused_before_any_diagram(one_mode, monkeypatch):
     cfg, rec = one_mode
     monkeypatch.setattr(modal, "stabilization_diagram", pytest.fail)  # never reached
-    with pytest.raises(DataError, match="no tachometer"):
-        record_modes(cfg, rec, orders=[23.0])
+    with pytest.raises(DataError, match="must be a speed"):
+        record_modes(cfg, rec, orders=[23.0], speeds={"torque": 1.0})

@@ -1,6 +1,7 @@
 # The modes of bench records, chosen by the data (docs/modal.md): per record, the
-# stabilization diagrams of every pairing (subspace and LSCF), clusters labelled mode or
-# harmonic, the model order the identify stage uses; a table and a figure per pairing.
+# stabilization diagrams of every pairing (subspace and LSCF), clusters labelled mode,
+# harmonic or spurious with their evidence, the model order the identify stage uses; a
+# table per record and one per group of repeats, a figure per pairing.
 # Included after measured.smk (MEASURED, SPECS, `record` wildcard constraint).
 
 
@@ -8,7 +9,7 @@ def _modes_cfg():
     # the config slice of the diagrams: conditioning, windows, reference, criteria
     keys = ("pairings", "sample_rate", "lowpass", "past", "future", "zeta_max",
             "nonparametric", "frf", "stabilization")
-    return {"campaign": {"settle": config["campaign"]["settle"]},
+    return {"campaign": {"settle": config["campaign"]["settle"]}, "seed": config["seed"],
             "identify": {k: config["identify"][k] for k in keys}}
 
 
@@ -20,7 +21,8 @@ def modes_targets():
     """Final targets of the modes of bench records (for `measured_targets`)."""
     targets = expand(f"{RESULTS}/modes/measured/{{record}}.nc", record=MEASURED)
     if MEASURED:
-        targets.append(f"{RESULTS}/tables/modes_measured.csv")
+        targets += [f"{RESULTS}/tables/modes_measured.csv",
+                    f"{RESULTS}/tables/modes_measured_groups.csv"]
     for r in MEASURED:
         for p in _pairing_names():
             targets += figure(f"modes_{r}_{p}")
@@ -37,6 +39,8 @@ rule modes_measured:
     params:
         cfg=_modes_cfg(),
         orders=lambda w: list(SPECS[w.record].orders),
+        # measured.<record>.signals.<name>.shaft_order: speeds that place the order lines
+        speeds=lambda w: SPECS[w.record].speeds,
     output:
         nc=f"{RESULTS}/modes/measured/{{record}}.nc",
     log:
@@ -52,12 +56,17 @@ rule modes_measured:
 
 rule modes_table_measured:
     message:
-        "Table: the modes and order lines of every bench record x pairing x method"
+        "Tables: the modes, order lines and noise poles of every bench record x pairing x "
+        "method, and per group of repeats"
     input:
         modes=expand(f"{RESULTS}/modes/measured/{{record}}.nc", record=MEASURED),
         code=code("modes_table.py"),
+    params:
+        groups=GROUPS,
+        tolerance=config["identify"]["stabilization"]["frequency_tolerance"],
     output:
         table=f"{RESULTS}/tables/modes_measured.csv",
+        groups=f"{RESULTS}/tables/modes_measured_groups.csv",
     log:
         f"{RESULTS}/logs/modes_table_measured.log",
     benchmark:

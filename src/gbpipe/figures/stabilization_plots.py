@@ -2,9 +2,10 @@
 
 One panel per diagram method (the subspace method, LSCF): the poles of every model order
 (order on the left axis, frequency across), the stable ones marked, the clusters' poles
-coloured by their label (mode or harmonic), the shaft-order bands shaded, each cluster
-labelled with its frequency; the nonparametric FRF's mode indicator behind them on the
-right axis (:func:`gbpipe.identify.record_modes`, docs/modal.md).
+coloured by their kind (mode, harmonic, spurious in grey), each mode with its frequency
+spread over the orders, the order lines' bands shaded and named by their order, each
+cluster labelled with its frequency; the nonparametric FRF's mode indicator behind them
+on the right axis (:func:`gbpipe.identify.record_modes`, docs/modal.md).
 """
 
 from __future__ import annotations
@@ -20,7 +21,7 @@ from gbpipe.figures.style import new, save
 
 __all__ = ["stabilization_figure"]
 
-_KIND_COLOR = {"mode": "C0", "harmonic": "C3"}
+_KIND_COLOR = {"mode": "C0", "harmonic": "C3", "spurious": "0.55"}
 
 
 def stabilization_figure(ds: xr.Dataset, pairing: str, record: str,
@@ -51,8 +52,12 @@ def stabilization_figure(ds: xr.Dataset, pairing: str, record: str,
     numbers: dict[str, str] = {}
     for ax, method in zip(axes[0], methods, strict=True):
         m = d.sel({"method": method})
-        for lo, hi in zip(ds.harmonic_low.values, ds.harmonic_high.values, strict=True):
+        top = np.nanmax(m.order.values)
+        for k, lo, hi in zip(ds.harmonic_order.values, ds.harmonic_low.values,
+                             ds.harmonic_high.values, strict=True):
             ax.axvspan(lo, hi, color="0.85", lw=0, zorder=0)
+            ax.text(0.5 * (lo + hi), 0.02 * top, f"{k:.4g}x", rotation=90, fontsize=5,
+                    ha="center", va="bottom", color="0.35")
         order = m.order.values[:, None] * np.ones(m.pole_frequency.shape[-1])
         pf, stable = m.pole_frequency.values, m.pole_stable.values > 0
         cluster = m.pole_cluster.values
@@ -65,9 +70,11 @@ def stabilization_figure(ds: xr.Dataset, pairing: str, record: str,
             sel &= np.isin(cluster, np.flatnonzero(kinds == kind))
             ax.plot(pf[sel], order[sel], "o", color=color, ms=3, mfc="none",
                     label=f"cluster: {kind}")
-        top = np.nanmax(m.order.values)
         for c in np.flatnonzero(np.isfinite(m.mode_frequency.values)):
             fc = float(m.mode_frequency.values[c])
+            if kinds[c] == "mode":  # the spread of a mode over the orders that hold it
+                ax.errorbar(fc, top * 1.03, xerr=float(m.mode_frequency_spread.values[c]),
+                            fmt="v", color="C0", ms=3, capsize=2, lw=0.8)
             ax.annotate(f"{fc:.1f}", (fc, top), xytext=(0, 4), textcoords="offset points",
                         rotation=90, fontsize=6, ha="center", va="bottom",
                         color=_KIND_COLOR.get(str(kinds[c]), "k"))
@@ -92,9 +99,12 @@ def stabilization_figure(ds: xr.Dataset, pairing: str, record: str,
     save(fig, out["png"])
     write_caption(out["caption"], f"Stabilization diagrams of record {record}, {pairing}",
                   "extension (modes chosen by the data)",
-                  "Poles of every model order (grey), stable poles (+), clusters of stable "
-                  "poles (circles: blue a mode, red on a shaft-order line), the order lines' "
-                  "bands over the record's speed range widened by the resolution (shaded), "
-                  "and the nonparametric FRF's mode indicator (green, right axis).",
+                  "Poles of every model order (grey dots), stable poles (+), clusters of "
+                  "stable poles (circles: blue a mode, with its frequency spread over the "
+                  "orders at the top; red an order line; grey a noise pole), the order "
+                  "lines' bands named by their order over the record's speed range widened "
+                  "by the resolution (shaded; the speed: "
+                  f"{ds.attrs.get('speed_source', 'the tacho')}), and the nonparametric "
+                  "FRF's mode indicator (green, right axis).",
                   numbers)
     return numbers

@@ -21,9 +21,11 @@ condition, decimate, version_signals, ConditionedRecord
     Records -> identification data (each signal of each data version conditioned once).
 frf_error_db, match_bandwidth, identified_modes, match_modes
     Identified vs reference model.
-record_modes, modes_table_rows
-    Stabilization diagrams, modes and model order of a bench record (docs/modal.md);
-    ``harmonic_bands``, ``label_poles``: which poles sit on a shaft-order line.
+record_modes, modes_table_rows, group_table_rows
+    Stabilization diagrams, modes and model order of a bench record (docs/modal.md):
+    every cluster a mode, an order line (harmonic) or noise (spurious), with its
+    evidence; the repeats of a group as one row per mode; ``harmonic_bands``,
+    ``label_poles``: which poles sit on a shaft-order line.
 Reference, truth_reference, nonparametric_reference, within_reference
     What an identified FRF is scored against: the true model (simulated records) or the
     nonparametric FRF of the data with its 95 % bounds (measured records).
@@ -46,6 +48,7 @@ from gbpipe.identify.metrics import (
     match_modes,
 )
 from gbpipe.identify.modal import TABLE_COLUMNS, modes_table_rows, record_modes
+from gbpipe.identify.mode_groups import GROUP_COLUMNS, group_table_rows
 from gbpipe.identify.prepare import (
     VALIDATION_PARTNER,
     VERSIONS,
@@ -79,4 +82,5 @@ __all__ = ["identify_methods", "identify_record", "record_label", "Reference",
            "VERSIONS", "VALIDATION_PARTNER", "SHORT", "MODE_TOLERANCE",
            "SOURCES", "error_bound_db", "predict", "predict_test",
            "record_modes", "modes_table_rows", "TABLE_COLUMNS", "HarmonicBands",
-           "harmonic_bands", "label_poles", "record_harmonic_bands", "shaft_frequency_range"]
+           "harmonic_bands", "label_poles", "record_harmonic_bands", "shaft_frequency_range",
+           "GROUP_COLUMNS", "group_table_rows"]

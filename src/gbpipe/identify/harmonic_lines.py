@@ -19,7 +19,7 @@ mode (docs/modal.md, "Criteria").
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from typing import NamedTuple
 
 import numpy as np
@@ -28,10 +28,11 @@ import xarray as xr
 from gbpipe.errors import ConfigError, DataError
 from gbpipe.harmonics import check_pulse_times
 
-__all__ = ["HarmonicBands", "shaft_frequency_range", "harmonic_bands", "record_harmonic_bands",
-           "label_poles", "KINDS"]
+__all__ = ["HarmonicBands", "shaft_frequency_range", "speed_frequency_range", "harmonic_bands",
+           "record_harmonic_bands", "order_one", "label_poles", "KINDS"]
 
-#: The labels of a pole or cluster.
+#: The labels :func:`label_poles` gives (a cluster can also be ``spurious``:
+#: :mod:`gbpipe.identify.mode_kinds`).
 KINDS = ("mode", "harmonic")
 
 
@@ -46,14 +47,18 @@ class HarmonicBands(NamedTuple):
         Band edges [Hz]: order x the slowest / fastest shaft frequency, minus / plus the
         frequency resolution.
     shaft_hz : tuple of float
-        The tacho shaft's frequency range over the record ``(f_low, f_high)`` [Hz]; NaN
-        without a tachometer.
+        The reference shaft's frequency range over the record ``(f_low, f_high)`` [Hz];
+        NaN without a speed.
+    source : str
+        Where the speed comes from (``the tacho``, ``speed signal <name> (shaft order
+        k)``, the record's own order-1 line), for the evidence of a label; empty: none.
     """
 
     order: np.ndarray
     low_hz: np.ndarray
     high_hz: np.ndarray
     shaft_hz: tuple[float, float]
+    source: str = ""
 
 
 def shaft_frequency_range(pulse_time: np.ndarray, pulses_per_rev: int) -> tuple[float, float]:
@@ -90,6 +95,48 @@ def shaft_frequency_range(pulse_time: np.ndarray, pulses_per_rev: int) -> tuple[
                         f"{ppr} pulses per revolution: record a longer run")
     f_rev = 1.0 / (p[ppr:] - p[:-ppr])
     return float(f_rev.min()), float(f_rev.max())
+
+
+def speed_frequency_range(speed: np.ndarray, fs: float, shaft_order: float,
+                          segment: float) -> tuple[float, float]:
+    """Slowest and fastest reference-shaft frequency of a speed signal [Hz].
+
+    The speed is averaged over the Welch segment of the estimate (``segment`` [s]): a line
+    in that estimate sits at the mean shaft frequency of a segment, and the average
+    removes the speed signal's noise (an encoder's derivative amplifies it).
+
+    Parameters
+    ----------
+    speed : ndarray, shape (N,)
+        Angular speed of the measured shaft [rad/s], sampled at ``fs`` [Hz].
+    shaft_order : float
+        The measured shaft turns at this multiple of the reference shaft the orders are
+        referred to [1], > 0.
+    segment : float
+        Averaging length [s].
+
+    Returns
+    -------
+    (float, float)
+        ``(f_low, f_high)`` of the reference shaft [Hz].
+
+    Raises
+    ------
+    gbpipe.errors.DataError
+        A shaft that stands or turns both ways (the mean speed changes sign), or a record
+        shorter than one segment.
+    """
+    n = int(round(segment * fs))
+    s = np.abs(np.asarray(speed, float))
+    if s.size < n or n < 1:
+        raise DataError("speed", f"{s.size} samples are fewer than one Welch segment "
+                        f"({n}): record a longer run")
+    mean = np.convolve(s, np.ones(n) / n, mode="valid") / (2 * np.pi * float(shaft_order))
+    signed = np.convolve(np.asarray(speed, float), np.ones(n) / n, mode="valid")
+    if (np.any(signed > 0) and np.any(signed < 0)) or not np.all(mean > 0):
+        raise DataError("speed", "the shaft stands or reverses within the record, so no "
+                        "order line has a frequency: analyse a run at speed")
+    return float(mean.min()), float(mean.max())
 
 
 def harmonic_bands(shaft_hz: tuple[float, float], orders: Sequence[float], resolution_hz: float,
@@ -137,28 +184,103 @@ def harmonic_bands(shaft_hz: tuple[float, float], orders: Sequence[float], resol
 
 
 def record_harmonic_bands(record: xr.Dataset, orders: Sequence[float], resolution_hz: float,
-                          n_harmonics: int, f_max: float | None = None) -> HarmonicBands:
-    """:func:`harmonic_bands` of a record from its tachometer (``pulse_time``).
+                          n_harmonics: int, f_max: float | None = None,
+                          speeds: Mapping[str, float] | None = None,
+                          segment: float | None = None) -> HarmonicBands:
+    """:func:`harmonic_bands` of a record from its tachometer or a speed signal.
 
-    A record without a single mapped tachometer has no speed: it gets no bands (every
-    pole is then a ``mode``), unless ``orders`` are listed, which cannot be placed without
-    a speed and are refused.
+    The tachometer (``pulse_time``) when there is one: its shaft is the reference of the
+    orders. Else the first of ``speeds`` (signal name -> shaft order of the measured
+    shaft, ``measured.<record>.signals.<name>.shaft_order``; an encoder angle is stored
+    as its speed). A record with neither gets no bands, unless ``orders`` are listed,
+    which cannot be placed without a speed and are refused here
+    (:func:`gbpipe.identify.record_modes` places them on the record's own order-1 line).
+
+    Parameters
+    ----------
+    speeds : mapping str -> float, optional
+        Speed signals [rad/s] of the record and the order of their shaft [1].
+    segment : float, optional
+        Averaging length of a speed signal [s] (default ``1 / resolution_hz``).
 
     Raises
     ------
     gbpipe.errors.DataError
-        ``orders`` given for a record without ``pulse_time``.
+        ``orders`` given for a record with no speed; a speed signal missing or not in
+        rad/s.
     """
-    if "pulse_time" not in record:
-        if len(orders):
-            raise DataError("pulse_time", f"the record has no tachometer, so its orders "
-                            f"{list(orders)} cannot be placed: map one signal with quantity: "
-                            "tacho, or remove orders")
+    if "pulse_time" in record:
+        shaft = shaft_frequency_range(np.asarray(record["pulse_time"].values, dtype=float),
+                                      int(record.attrs["pulses_per_rev"]))
+        return harmonic_bands(shaft, orders, resolution_hz, n_harmonics,
+                              f_max)._replace(source="the tacho")
+    for name, shaft_order in (speeds or {}).items():
+        if name not in record or record[name].attrs.get("units") != "rad/s":
+            raise DataError(f"signal '{name}'", "a signal with shaft_order must be a speed "
+                            "(quantity: angle, or a value in an angular-speed unit such as "
+                            "rpm or rad/s)")
+        shaft = speed_frequency_range(record[name].values, float(record.attrs["sample_rate"]),
+                                      shaft_order, segment or 1.0 / resolution_hz)
+        return harmonic_bands(shaft, orders, resolution_hz, n_harmonics, f_max)._replace(
+            source=f"speed signal {name} (shaft order {shaft_order:g})")
+    if len(orders):
+        raise DataError("pulse_time", f"the record has no tachometer and no speed signal, so "
+                        f"its orders {list(orders)} cannot be placed: map a tacho, or give a "
+                        "speed or angle signal its shaft_order, or remove orders")
+    empty = np.array([])
+    return HarmonicBands(empty, empty, empty, (np.nan, np.nan))
+
+
+def order_one(lines_hz: np.ndarray, orders: Sequence[float], resolution_hz: float,
+              n_harmonics: int, f_max: float | None = None,
+              speeds: Mapping[str, tuple[float, float]] | None = None) -> HarmonicBands:
+    """Order lines from the record's own order-1 line, for a record with no known speed.
+
+    The candidates for order 1 are the record's speed signals that no ``shaft_order``
+    places (their own shaft's frequency range) and each line (a cluster the PDF or damping
+    test called a sinusoid) taken as each order of the family ``1 .. max(n_harmonics, 1)``
+    and ``orders`` in turn. The candidate whose family holds the most lines is taken (of
+    equals: a speed signal, a measured range, before a line; then the first line, lowest,
+    as the lowest order), when it holds one at least. A line's range is that
+    of the lines within the resolution of it (the speed drifts: every method and pairing
+    sees it at a slightly other frequency).
+
+    Parameters
+    ----------
+    lines_hz : ndarray
+        Frequencies of the clusters found to be sinusoids [Hz].
+    orders, resolution_hz, n_harmonics, f_max
+        As :func:`gbpipe.identify.harmonic_bands`.
+    speeds : mapping str -> (float, float), optional
+        Speed signals of the record -> their shaft's frequency range [Hz]
+        (:func:`gbpipe.identify.harmonic_lines.speed_frequency_range`, shaft order 1).
+
+    Returns
+    -------
+    HarmonicBands
+        Empty when no candidate holds a line.
+    """
+    f = np.sort(np.asarray(lines_hz, float))
+    k = np.concatenate([np.arange(1.0, max(int(n_harmonics), 1) + 1), list(orders)])
+    cands = [((lo, hi), f"speed signal {name} taken as order 1 (its own shaft's lines; "
+                        "no shaft_order given)") for name, (lo, hi) in (speeds or {}).items()]
+    for f_line in f:
+        same = f[np.abs(f - f_line) <= resolution_hz]
+        for kk in np.unique(k):  # the line may be any order of the family
+            cands.append(((float(same.min()) / kk, float(same.max()) / kk),
+                          f"the record's own order-1 line at {f_line / kk:.2f} Hz (the line "
+                          f"at {f_line:.2f} Hz as order {kk:.4g}; no speed measured)"))
+    best, score = None, 0
+    for (lo, hi), source in cands:
+        hits = int(np.sum(np.any((f[:, None] >= k * lo - resolution_hz)
+                                 & (f[:, None] <= k * hi + resolution_hz), axis=1)))
+        if hits > score:
+            best, score = ((lo, hi), source), hits
+    if best is None:
         empty = np.array([])
-        return HarmonicBands(empty, empty, empty, (np.nan, np.nan))
-    shaft = shaft_frequency_range(np.asarray(record["pulse_time"].values, dtype=float),
-                                  int(record.attrs["pulses_per_rev"]))
-    return harmonic_bands(shaft, orders, resolution_hz, n_harmonics, f_max)
+        return HarmonicBands(empty, empty, empty, (np.nan, np.nan), "")
+    return harmonic_bands(best[0], orders, resolution_hz, n_harmonics,
+                          f_max)._replace(source=best[1])
 
 
 def label_poles(frequency_hz: np.ndarray, bands: HarmonicBands) -> np.ndarray:

@@ -29,8 +29,14 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
+from gbpipe.errors import DataError
 from gbpipe.identify.bench_data import operating_point_settle
-from gbpipe.identify.harmonic_lines import HarmonicBands, label_poles, record_harmonic_bands
+from gbpipe.identify.harmonic_lines import (
+    HarmonicBands,
+    record_harmonic_bands,
+    speed_frequency_range,
+)
+from gbpipe.identify.mode_kinds import Cluster, Evidence, PairingData, record_evidence
 from gbpipe.identify.orders import order_windows
 from gbpipe.identify.prepare import ConditionedRecord
 from gbpipe.identify.reference import Reference, nonparametric_reference
@@ -49,7 +55,7 @@ log = logging.getLogger("gbpipe")
 
 #: Columns of ``tables/modes_measured.csv``, in order.
 TABLE_COLUMNS = ("record", "pairing", "method", "frequency_hz", "damping",
-                 "frequency_spread_hz", "damping_spread", "n_orders", "kind")
+                 "frequency_spread_hz", "damping_spread", "n_orders", "kind", "evidence")
 
 
 def order_range(bounds: Sequence[int], step: int) -> np.ndarray:
@@ -115,20 +121,27 @@ def _lscf_weights(ref: Reference) -> np.ndarray:
 
 
 def record_modes(cfg: Mapping[str, Any], record: xr.Dataset,
-                 orders: Sequence[float] = ()) -> xr.Dataset:
+                 orders: Sequence[float] = (), *,
+                 speeds: Mapping[str, float] | None = None) -> xr.Dataset:
     """Stabilization diagrams, modes and model order of every pairing of one record.
 
     Parameters
     ----------
     cfg : mapping
-        Validated configuration slice: ``campaign.settle`` and the ``identify`` section
+        Validated configuration slice: ``campaign.settle``, the ``identify`` section
         (``pairings``, ``sample_rate``, ``lowpass``, ``past``, ``future``, ``zeta_max``,
-        ``nonparametric``, ``frf``, ``stabilization``).
+        ``nonparametric``, ``frf``, ``stabilization``) and the root ``seed`` (0 when the
+        slice has none).
     record : xarray.Dataset
         A bench record (:func:`gbpipe.measured.read`); a split record: its longest piece.
     orders : sequence of float
-        Excitation orders of the record's tacho shaft beyond the shaft harmonics
+        Excitation orders of the reference shaft beyond its harmonics
         (``measured.<record>.orders``) [-].
+    speeds : mapping str -> float, optional
+        Speed signals of the record [rad/s] and the order of their shaft relative to the
+        reference shaft (``measured.<record>.signals.<name>.shaft_order``); used when the
+        record has no tacho. Without either, the record's own order-1 line is the
+        reference (docs/modal.md).
 
     Returns
     -------
@@ -141,7 +154,7 @@ def record_modes(cfg: Mapping[str, Any], record: xr.Dataset,
     Raises
     ------
     gbpipe.errors.DataError
-        Orders listed for a record without a tachometer, a pairing's signal missing.
+        A pairing's signal missing, a ``speeds`` signal that is not a speed.
     gbpipe.errors.PulseError
         An unusable pulse train.
     """
@@ -149,9 +162,12 @@ def record_modes(cfg: Mapping[str, Any], record: xr.Dataset,
     record = longest_segment(record)
     fs_id = float(s["sample_rate"])
     resolution = 1.0 / float(s["nonparametric"]["segment"])
-    # before any long work: the bands need a usable tacho when orders are listed
-    bands = record_harmonic_bands(record, orders, resolution,
-                                  s["stabilization"]["shaft_harmonics"], s["frf"]["f_max"])
+    st = s["stabilization"]
+    # before any long work: the bands of a measured speed (a tacho, or a speed signal);
+    # without one the orders wait for the record's own order-1 line (mode_kinds)
+    speed = "pulse_time" in record or bool(speeds)
+    bands = record_harmonic_bands(record, orders if speed else (), resolution,
+                                  st["shaft_harmonics"], s["frf"]["f_max"], speeds=speeds)
     # the operating point as the identify stage takes it: the mean before the inputs'
     # first excitation in the band (at most campaign.settle)
     inputs = list(dict.fromkeys(n for p in s["pairings"] for n in p["inputs"]))
@@ -161,11 +177,14 @@ def record_modes(cfg: Mapping[str, Any], record: xr.Dataset,
                             s["lowpass"])
     for p in s["pairings"]:  # every signal is there before the first (long) diagram
         rec(list(p["inputs"]) + list(p["outputs"]) + list(p.get("reference", [])), "raw")
-    results, refs = [], []
+    results, refs, data = [], [], []
     for p in s["pairings"]:
         u, y = rec(p["inputs"], "raw"), rec(p["outputs"], "raw")
         r = rec(p["reference"], "raw") if "reference" in p else None
         refs.append(nonparametric_reference(u, y, fs_id, s, r))
+        data.append(PairingData(y, list(p["outputs"]), fs_id, refs[-1].frequency,
+                                refs[-1].coherence.reshape(refs[-1].frequency.size, -1)
+                                .max(axis=1)))
         results.append(_diagrams(u, y, _whole_band(u, y, fs_id, s, r), 1.0 / fs_id, s))
         for method, res in results[-1].items():
             if isinstance(res, str):
@@ -173,7 +192,42 @@ def record_modes(cfg: Mapping[str, Any], record: xr.Dataset,
             else:
                 log.info("%s %s: %d clusters, order %d", p["name"], method,
                          len(res.clusters), res.order)
-    return _dataset(s, [p["name"] for p in s["pairings"]], results, refs, bands, record)
+    kept = _in_band(s, results)
+    clusters = [Cluster(j, m.frequency_hz, m.damping) for (_, j), ms in kept.items()
+                for _, m in ms]
+    evidence, bands = record_evidence(
+        clusters, data, bands, orders, resolution,
+        float(s["nonparametric"]["coherence_min"]), st["shaft_harmonics"],
+        s["frf"]["f_max"], int(cfg.get("seed", 0)),
+        {} if speed else _turning_shafts(record, 1.0 / resolution))
+    return _dataset(s, [p["name"] for p in s["pairings"]], results, refs, bands, record,
+                    kept, evidence)
+
+
+def _turning_shafts(record: xr.Dataset, segment: float) -> dict[str, tuple[float, float]]:
+    # the record's speed signals [rad/s] of a turning shaft (no shaft_order: their order
+    # is not known) and their frequency range [Hz]: candidates for the order-1 line
+    out = {}
+    for name, v in record.data_vars.items():
+        if v.attrs.get("units") == "rad/s" and v.dims == ("time",):
+            try:
+                out[str(name)] = speed_frequency_range(v.values, float(
+                    record.attrs["sample_rate"]), 1.0, segment)
+            except DataError:  # standing or reversing: no shaft speed, no candidate
+                continue
+    return out
+
+
+def _in_band(s: Mapping[str, Any], results: list[dict[str, Any]]
+             ) -> dict[tuple[str, int], list[tuple[int, Any]]]:
+    # per (method, pairing index): the clusters in the FRF band, with their index in the
+    # diagram: below the band lie the rigid-body and control modes the record is too
+    # short to resolve, above it the anti-aliasing filter's edge
+    f_lo, f_hi = float(s["frf"]["f_min"]), float(s["frf"]["f_max"])
+    return {(method, j): [(c, m) for c, m in enumerate(r.clusters)
+                          if f_lo <= m.frequency_hz <= f_hi]
+            for j, res in enumerate(results) for method, r in res.items()
+            if not isinstance(r, str)}
 
 
 def _ragged(rows: Sequence[np.ndarray], width: int, fill: float = np.nan) -> np.ndarray:
@@ -189,53 +243,64 @@ def _indicator_db(ref: Reference) -> np.ndarray:
 
 
 def _dataset(s: Mapping[str, Any], names: list[str], results: list[dict[str, Any]],
-             refs: list[Reference], bands: HarmonicBands, record: xr.Dataset) -> xr.Dataset:
+             refs: list[Reference], bands: HarmonicBands, record: xr.Dataset,
+             kept: Mapping[tuple[str, int], list[tuple[int, Any]]],
+             evidence: Sequence[Evidence]) -> xr.Dataset:
     methods = list(results[0])
     nm, npair = len(methods), len(names)
     f_lo, f_hi = float(s["frf"]["f_min"]), float(s["frf"]["f_max"])
-    n_cl = max([len(r.clusters) for res in results for r in res.values()
-                if not isinstance(r, str)] + [1])
+    n_cl = max([len(k) for k in kept.values()] + [1])
     n_ord = max(len(order_range(s["stabilization"][k], st))
                 for k, st in (("orders", s["stabilization"]["step"]), ("lscf_orders", 1)))
     n_pole = max([len(p[0]) for res in results for r in res.values() if not isinstance(r, str)
                   for p in r.poles] + [1])
     shape_c, shape_p = (nm, npair, n_cl), (nm, npair, n_ord, n_pole)
-    cl = {k: np.full(shape_c, np.nan) for k in ("f", "z", "fs", "zs", "n")}
+    cl = {k: np.full(shape_c, np.nan) for k in ("f", "z", "fs", "zs", "n", "k", "kl", "c", "o")}
     kind = np.full(shape_c, "", dtype=object)
+    why = np.full(shape_c, "", dtype=object)
     pf, pz = np.full(shape_p, np.nan), np.full(shape_p, np.nan)
     pstable = np.zeros(shape_p, np.int8)
     pcluster = np.full(shape_p, -1, np.int32)
     order_of = np.full((nm, n_ord), np.nan)
     model_order = np.zeros((nm, npair), np.int32)
     status = np.full((nm, npair), "ok", dtype=object)
+    ev = iter(evidence)  # in the order of kept (record_modes)
+    for (method, j), keep in kept.items():
+        i, r = methods.index(method), results[j][method]
+        for c, (_, m) in enumerate(keep):
+            e = next(ev)
+            cl["f"][i, j, c], cl["z"][i, j, c] = m.frequency_hz, m.damping
+            cl["fs"][i, j, c], cl["zs"][i, j, c] = m.frequency_spread_hz, m.damping_spread
+            cl["n"][i, j, c] = m.n_orders
+            cl["k"][i, j, c], cl["kl"][i, j, c] = e.kurtosis, e.kurtosis_limit
+            cl["c"][i, j, c], cl["o"][i, j, c] = e.coherence, e.line_order
+            kind[i, j, c], why[i, j, c] = e.kind, e.text
+        renumber = np.full(len(r.clusters) + 1, -1)  # stab's cluster -> kept; -1 stays
+        renumber[[k for k, _ in keep]] = np.arange(len(keep))
+        pf[i, j, :len(r.poles)] = _ragged([p[0] for p in r.poles], n_pole)
+        pz[i, j, :len(r.poles)] = _ragged([p[1] for p in r.poles], n_pole)
+        pstable[i, j, :len(r.poles)] = _ragged(r.stable, n_pole, 0)
+        pcluster[i, j, :len(r.poles)] = _ragged([renumber[lab] for lab in r.labels],
+                                                n_pole, -1)
     for j, res in enumerate(results):
+        # the order the identify stage fits: the lowest that holds every mode either
+        # method found in the band and the order lines of its own diagram (the model must
+        # explain the lines it is fitted on); noise poles never count, and lines alone
+        # (no mode) set no order
+        modes = cl["f"][:, j][kind[:, j] == "mode"]
         for i, method in enumerate(methods):
             r = res[method]
             if isinstance(r, str):
                 status[i, j] = r
                 continue
             order_of[i, :len(r.orders)] = r.orders
-            # the clusters in the FRF band: below it lie the rigid-body and control modes
-            # the record is too short to resolve, above it the anti-aliasing filter's edge
-            keep = [c for c, m in enumerate(r.clusters) if f_lo <= m.frequency_hz <= f_hi]
-            # the order the identify stage fits: the lowest that holds every cluster in
-            # the band (modes and order lines alike: the model must carry both); none: 0
-            model_order[i, j] = lowest_order(r.orders, r.poles, [r.clusters[k] for k in keep],
-                                             s["stabilization"]["frequency_tolerance"])
-            if not keep:
-                status[i, j] = (f"no mode: no cluster of stable poles in {f_lo:g}-{f_hi:g} Hz")
-            for c, m in enumerate(r.clusters[k] for k in keep):
-                cl["f"][i, j, c], cl["z"][i, j, c] = m.frequency_hz, m.damping
-                cl["fs"][i, j, c], cl["zs"][i, j, c] = m.frequency_spread_hz, m.damping_spread
-                cl["n"][i, j, c] = m.n_orders
-            kind[i, j, :len(keep)] = label_poles(cl["f"][i, j, :len(keep)], bands)
-            renumber = np.full(len(r.clusters) + 1, -1)  # stab's cluster -> kept; -1 stays
-            renumber[keep] = np.arange(len(keep))
-            pf[i, j, :len(r.poles)] = _ragged([p[0] for p in r.poles], n_pole)
-            pz[i, j, :len(r.poles)] = _ragged([p[1] for p in r.poles], n_pole)
-            pstable[i, j, :len(r.poles)] = _ragged(r.stable, n_pole, 0)
-            pcluster[i, j, :len(r.poles)] = _ragged([renumber[lab] for lab in r.labels],
-                                                    n_pole, -1)
+            lines = cl["f"][i, j][kind[i, j] == "harmonic"]
+            model_order[i, j] = modes.size and lowest_order(
+                r.orders, r.poles, np.concatenate([modes, lines]),
+                s["stabilization"]["frequency_tolerance"])
+            if not modes.size:
+                status[i, j] = (f"no mode: no cluster of stable poles in {f_lo:g}-{f_hi:g} Hz "
+                                "that is a mode (table evidence)")
     dims_c, dims_p = ("method", "pairing", "cluster"), ("method", "pairing", "order_index",
                                                         "pole")
     f = refs[0].frequency
@@ -243,7 +308,8 @@ def _dataset(s: Mapping[str, Any], names: list[str], results: list[dict[str, Any
     data = {
         "model_order": (("method", "pairing"), model_order,
                         {"units": one, "long_name": "model order the identify stage uses "
-                         "(lowest order holding every stable cluster; 0: none)"}),
+                         "(lowest order holding every mode of either method and its own "
+                         "lines; 0: no mode)"}),
         "status": (("method", "pairing"), status,
                    {"units": one, "long_name": "ok, or why the diagram failed or found "
                     "no mode"}),
@@ -260,7 +326,16 @@ def _dataset(s: Mapping[str, Any], names: list[str], results: list[dict[str, Any
         "mode_n_orders": (dims_c, cl["n"], {"units": one, "long_name":
                                             "model orders the cluster is stable in"}),
         "mode_kind": (dims_c, kind, {"units": one, "long_name":
-                                     "mode, or harmonic (on a shaft-order line)"}),
+                                     "mode, harmonic (an order line) or spurious (noise)"}),
+        "mode_evidence": (dims_c, why, {"units": one, "long_name": "why the kind, in words"}),
+        "mode_kurtosis": (dims_c, cl["k"], {"units": one, "long_name": "lowest kurtosis of "
+                                            "the outputs in the cluster's band"}),
+        "mode_kurtosis_limit": (dims_c, cl["kl"], {"units": one, "long_name": "lowest "
+                                                   "kurtosis a mode of the cluster gives"}),
+        "mode_coherence": (dims_c, cl["c"], {"units": one, "long_name": "highest coherence "
+                                             "in the cluster's band"}),
+        "mode_line_order": (dims_c, cl["o"], {"units": one, "long_name": "order of the "
+                                              "line the cluster lies on (NaN: none)"}),
         "order": (("method", "order_index"), order_of,
                   {"units": one, "long_name": "model order of the diagram row (state "
                    "dimension; LSCF: polynomial order)"}),
@@ -280,7 +355,7 @@ def _dataset(s: Mapping[str, Any], names: list[str], results: list[dict[str, Any
                       np.array([r.coherence.reshape(f.size, -1).min(axis=1) for r in refs]),
                       {"units": one, "long_name": "lowest coherence over the FRF elements"}),
         "harmonic_order": (("band",), bands.order, {"units": one, "long_name":
-                                                    "shaft order of the tacho shaft"}),
+                                                    "order of the reference shaft"}),
         "harmonic_low": (("band",), bands.low_hz, {"units": "Hz", "long_name":
                                                    "lower edge of the order line's band"}),
         "harmonic_high": (("band",), bands.high_hz, {"units": "Hz", "long_name":
@@ -293,6 +368,7 @@ def _dataset(s: Mapping[str, Any], names: list[str], results: list[dict[str, Any
     attrs = {"record": str(record.attrs.get("record", "")),
              "shaft_frequency_low_hz": bands.shaft_hz[0],
              "shaft_frequency_high_hz": bands.shaft_hz[1],
+             "speed_source": bands.source or "none",
              "resolution_hz": 1.0 / float(s["nonparametric"]["segment"]),
              "coherence_min": float(s["nonparametric"]["coherence_min"])}
     return xr.Dataset(data, coords, attrs)
@@ -313,5 +389,6 @@ def modes_table_rows(ds: xr.Dataset, record: str) -> list[dict[str, Any]]:
                              "frequency_spread_hz": float(d.mode_frequency_spread.values[c]),
                              "damping_spread": float(d.mode_damping_spread.values[c]),
                              "n_orders": int(d.mode_n_orders.values[c]),
-                             "kind": str(d.mode_kind.values[c])})
+                             "kind": str(d.mode_kind.values[c]),
+                             "evidence": str(d.mode_evidence.values[c])})
     return rows

@@ -259,12 +259,17 @@ def _line_bands(records: Sequence[xr.Dataset], line_orders: Sequence[float],
 
     :func:`gbpipe.identify.harmonic_lines.record_harmonic_bands`, widened by the main-lobe
     half-width of the nonparametric estimate's Hann window, ``2 / segment``: that far a
-    line leaks into the Welch estimate. Computed once per job, before any fit.
+    line leaks into the Welch estimate. Computed once per job, before any fit. A record
+    without a tachometer gets none here (its lines are placed by the modes stage from a
+    speed signal or the record's own order-1 line, docs/modal.md).
     """
     resolution = 2.0 / float(s["nonparametric"]["segment"])
+    if len(line_orders) and any("pulse_time" not in rec for rec in records):
+        log.warning("orders %s not excluded from the assessment of a record without a "
+                    "tachometer (docs/modal.md)", list(line_orders))
     return [record_harmonic_bands(rec, line_orders, resolution,
                                   s["stabilization"]["shaft_harmonics"], s["frf"]["f_max"])
-            for rec in records if "pulse_time" in rec or len(line_orders)]
+            for rec in records if "pulse_time" in rec]
 
 
 def _off_lines(ref: Reference, bands: Sequence[HarmonicBands]) -> Reference:

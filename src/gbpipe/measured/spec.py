@@ -24,7 +24,7 @@ _RECORD_KEYS = ("files", "sample_rate", "signals", "gaps", "orders", "validation
 _FILE_KEYS = ("path", "format", "time", "sample_rate", "delimiter", "decimal", "header",
               "time_unit", "interleaved")
 _SIGNAL_KEYS = ("file", "channel", "unit", "scale", "offset", "quantity", "pulses_per_rev",
-                "threshold", "hysteresis", "edge", "range", "tacho", "checks")
+                "threshold", "hysteresis", "edge", "range", "tacho", "checks", "shaft_order")
 #: ``setpoint``: a value that is held between updates (set-points, slowly updated drive
 #: readings), where long constant stretches are normal
 _QUANTITIES = ("value", "setpoint", "angle", "tacho")
@@ -80,6 +80,9 @@ class SignalSpec:
     range: tuple[float, float] | None = None
     tacho: str = "analog"
     checks: Mapping[str, str] | None = None
+    #: a speed (or an encoder angle) of a shaft turning at this multiple of the shaft
+    #: the record's ``orders`` refer to [-] (docs/modal.md); None: not a shaft speed
+    shaft_order: float | None = None
 
     def __post_init__(self) -> None:
         if self.checks is None:
@@ -102,6 +105,12 @@ class RecordSpec:
     validation: tuple[float, float] | None = None
     #: name shared by the repeats of one test, identified pooled (None: alone)
     group: str | None = None
+
+    @property
+    def speeds(self) -> dict[str, float]:
+        """Signals that measure a shaft's speed -> their ``shaft_order`` [-]."""
+        return {n: s.shaft_order for n, s in self.signals.items()
+                if s.shaft_order is not None}
 
 
 def _unknown(field: str, key: str, valid: tuple[str, ...]) -> ConfigError:
@@ -208,6 +217,12 @@ def _signal(name: str, value: Any, field: str, files: Mapping[str, FileSpec]) ->
         raise ConfigError(f"{field}.tacho", f"must be one of {', '.join(_TACHO_KINDS)}; "
                           f"got {tacho!r}")
     opt = {k: _number(m[k], f"{field}.{k}") for k in ("threshold", "hysteresis") if k in m}
+    if "shaft_order" in m:
+        if quantity not in ("value", "angle"):
+            raise ConfigError(f"{field}.shaft_order", f"a {quantity} signal is not a shaft "
+                              "speed: give shaft_order to a speed (value in rpm, rad/s...) or "
+                              "an encoder angle (quantity: angle)")
+        opt["shaft_order"] = _positive_order(m["shaft_order"], f"{field}.shaft_order")
     return SignalSpec(
         name=name, file=str(m["file"]), channel=str(m["channel"]), unit=m.get("unit"),
         scale=_number(m.get("scale", 1.0), f"{field}.scale"),
@@ -270,6 +285,16 @@ def parse(spec: Mapping[str, Any], name: str = "record") -> RecordSpec:
                       orders=tuple(float(k) for k in orders),
                       validation=_window(m.get("validation"), f"{root}.validation"),
                       group=_group(m.get("group"), f"{root}.group"))
+
+
+def _positive_order(value: Any, field: str) -> float:
+    # a shaft's speed relative to the reference shaft: a finite positive ratio
+    if (isinstance(value, bool) or not isinstance(value, int | float)
+            or not 0 < value < math.inf):
+        raise ConfigError(field, f"must be a positive number: the shaft's speed over the "
+                          f"reference shaft's (1 for the shaft the orders refer to) [-]; "
+                          f"got {value!r}")
+    return float(value)
 
 
 def _window(value: Any, field: str) -> tuple[float, float] | None:

@@ -268,17 +268,20 @@ def _mode(poles: list[PoleSet], group: list[tuple[int, int]]) -> Mode:
                 n_orders=len(group), shape=poles[k0][2][i0].copy())
 
 
-def lowest_order(orders: np.ndarray, poles: list[PoleSet], modes: list[Mode],
-                  freq_tol: float) -> int:
+def lowest_order(orders: np.ndarray, poles: list[PoleSet], modes: list[Mode] | np.ndarray,
+                 freq_tol: float) -> int:
     """Lowest order with a pole within the frequency tolerance of every mode.
+
+    ``modes``: :class:`Mode` objects, or their frequencies [Hz] (modes another diagram
+    found).
 
     Damping and shape are not asked for: at the lowest order that holds a mode they are
     often still moving (LSCF participation vectors most of all), while its frequency is
     already there.
     """
-    if not modes:
+    fm = np.array([getattr(m, "frequency_hz", m) for m in modes], dtype=float)
+    if not fm.size:
         return 0
-    fm = np.array([m.frequency_hz for m in modes])
     for n, (f, _, _) in zip(orders, poles, strict=True):
         near = np.abs(f[None, :] - fm[:, None]) <= freq_tol * fm[:, None]
         if f.size and near.any(axis=1).all():

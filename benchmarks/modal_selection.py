@@ -1,0 +1,272 @@
+"""Modal selection on random geared chains: gbpipe's modes stage against pyOMA2 (sdypy-EMA).
+
+Cases (``tests/identify/modal_cases.py``, every draw from ``numpy.random.default_rng``
+seeded by ``--seed`` and the case number): a random openTorsion chain (4-12 disks, 1-3
+gear stages, modal damping 0.5-10 %, every mode in 5-400 Hz, no two closer than twice
+the resolution), simulated exactly (zero-order hold, ``scipy.signal.dlsim``) at 2 kHz for
+``--duration`` s (default 40 s: 39 half-overlapping Welch segments of 2 s, the
+resolution 0.5 Hz holding ten periods of the lowest possible mode, 5 Hz, per segment);
+excited by a band-limited (5-60 Hz to 150-350 Hz), in half the cases notched, random
+motor torque, plus 3-8 angle-locked order lines of a random shaft (an unmeasured torque)
+and coloured sensor noise; outputs a torque meter and a speed. Half the cases carry a
+tacho (pulse train of the order lines' shaft), a quarter only its encoder angle, a
+quarter no speed. Each is written as a CSV bench file and read back by
+``gbpipe.measured.read`` with its ``measured:`` mapping.
+
+Truth: openTorsion's ``modal_analysis`` of the damped chain (gbpipe's own import,
+``from_assembly`` + ``build_chain``, is checked against it: the worst relative
+difference of the undamped frequencies is printed).
+
+Coherent band: the frequencies in ``identify.frf`` ``f_min``-``f_max`` (5-350 Hz) where the
+record's coherence (``scipy.signal.coherence``, Hann segments of
+``identify.nonparametric.segment``, 50 % overlap) from the measured motor torque to at
+least one output reaches ``identify.nonparametric.coherence_min`` (0.6). A truth mode is
+asked of the data (counts for recall) when its frequency lies in it.
+
+Scoring, the same for every tool, on the rows in 5-350 Hz:
+
+* a row matches the truth mode nearest it (relative to that mode's tolerance) when within
+  the tolerance ``max(2 df, zeta f / 2)``: twice the resolution ``df``, or a quarter of
+  the mode's half-power bandwidth ``2 zeta f``; each truth mode takes at most one row
+  (the closest), a second is a duplicate;
+* recall: truth modes in the coherent band matched by a ``mode`` row;
+* precision: ``mode`` rows matching a truth mode (any of the chain's: a real mode is no
+  false claim) over all ``mode`` rows; a row labelled ``harmonic`` or ``spurious`` is no
+  claim of a mode;
+* harmonic share: of the rows on an excited order line (order x the shaft's speed range,
+  widened by ``df``) that match no truth mode, the share labelled ``harmonic``.
+
+Counts are summed over the cases of a speed class (and over all cases) before dividing.
+
+Tools, in one process on the same record:
+
+* gbpipe: ``gbpipe.identify.record_modes`` with a validated config of the case (the
+  pairing motor torque -> torque meter and speed; the case's orders in every class: a
+  version that cannot place them without a tacho refuses them, and then gets none; a
+  version whose ``record_modes`` takes ``speeds`` gets the encoder's speed signal), its
+  two diagrams ``pbsid`` and ``lscf`` scored apart, one CPU time for both;
+* pyOMA2 (1.4.3): SSI-cov on the two outputs (decimated to ``identify.sample_rate`` with
+  ``scipy.signal.decimate``, each scaled to unit rms: they are in different units), its
+  automatic selection by hierarchical clustering (``quick="hier_avg"``); no labels, so
+  every row is a ``mode`` and its harmonic share is 0 by construction;
+* sdypy-EMA (0.31.0) has no automatic selection (poles picked on the stability chart in a
+  GUI, or nearest given frequencies): not scored, said so in the output.
+
+Time: CPU [s] per tool over all cases (the machine is shared: wall time is not
+comparable); peak traced memory [MiB] (``tracemalloc``, a second untimed run) on the first
+``--memory-cases`` cases.
+
+Usage: ``OMP_NUM_THREADS=1 PYTHONPATH=src python benchmarks/modal_selection.py --random 30
+--seed 1`` (peers: ``requirements-bench.txt``).
+"""
+
+from __future__ import annotations
+
+import argparse
+import inspect
+import logging
+import sys
+import tempfile
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import scipy.signal
+from modal_peers import measured, pyoma2_ssicov
+
+from gbpipe.config import load, merge, validate
+from gbpipe.errors import DataError
+from gbpipe.identify import record_modes
+from gbpipe.measured import read
+from gbpipe.model.chain import build_chain
+from gbpipe.model.opentorsion_io import from_assembly
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+from tests.identify import modal_cases  # noqa: E402
+
+#: Welch segment of the identify stage and of the coherence [s] (resolution 0.5 Hz).
+SEGMENT = 2.0
+#: The pairing of every case: the motor torque to both outputs.
+PAIRING = {"name": "Tm_to_M_w", "inputs": ["motor_torque"],
+           "outputs": ["torque_meter", "output_speed"]}
+#: Kinds that are no claim of a mode (``spurious``: the classification of later versions).
+NOT_MODE = ("harmonic", "spurious")
+SPEEDS = ("tacho", "encoder", "none")
+
+
+def case_config(case: modal_cases.Case) -> Any:
+    """The validated config of one case: its ``measured:`` entry and the pairing only."""
+    return validate(merge(load(ROOT / "config" / "config.yaml"), {
+        "measured": {case.name: case.spec}, "spectra": {"signal": "torque_meter"},
+        "identify": {"versions": ["raw"], "nonparametric": {"segment": SEGMENT},
+                     "pairings": [PAIRING]}}))
+
+
+def coherent(case: modal_cases.Case, record: Any, s: dict) -> np.ndarray:
+    """Mask of the truth modes in the coherent band (module docstring)."""
+    fs = float(record.attrs["sample_rate"])
+    u = record["motor_torque"].values
+    coh = [scipy.signal.coherence(u, record[o].values, fs=fs,
+                                  nperseg=int(round(s["nonparametric"]["segment"] * fs)))
+           for o in PAIRING["outputs"]]
+    f = case.frequency_hz
+    at = np.max([np.interp(f, fc, c) for fc, c in coh], axis=0)
+    band = (f >= s["frf"]["f_min"]) & (f <= s["frf"]["f_max"])
+    return band & (at >= s["nonparametric"]["coherence_min"])
+
+
+def score(f_rows: np.ndarray, kinds: np.ndarray, case: modal_cases.Case, asked: np.ndarray,
+          df: float, band: tuple[float, float]) -> dict[str, int]:
+    """Counts of one tool on one case (module docstring)."""
+    keep = (f_rows >= band[0]) & (f_rows <= band[1])
+    f_rows, kinds = f_rows[keep], kinds[keep]
+    f_t = case.frequency_hz
+    tol = np.maximum(2 * df, 0.5 * case.damping * f_t)
+    is_mode = ~np.isin(kinds, NOT_MODE)
+    d = np.abs(f_rows[:, None] - f_t[None, :]) / tol[None, :]
+    nearest = np.argmin(d, axis=1) if f_rows.size else np.zeros(0, int)
+    hit = d[np.arange(f_rows.size), nearest] <= 1.0
+    true_rows = 0
+    found = np.zeros(f_t.size, bool)
+    for j in range(f_t.size):  # the closest mode row of each truth mode counts, once
+        rows = np.flatnonzero(hit & is_mode & (nearest == j))
+        true_rows += rows.size > 0
+        found[j] = rows.size > 0
+    lo, hi = case.shaft_hz
+    on_line = np.zeros(f_rows.size, bool)
+    for k in case.orders:
+        on_line |= (f_rows >= k * lo - df) & (f_rows <= k * hi + df)
+    on_line &= ~hit
+    return {"asked": int(asked.sum()), "found": int((found & asked).sum()),
+            "mode_rows": int(is_mode.sum()), "true_rows": int(true_rows),
+            "line_rows": int(on_line.sum()),
+            "line_harmonic": int((on_line & (kinds == "harmonic")).sum())}
+
+
+def gbpipe_modes(cfg: Any, record: Any, case: modal_cases.Case) -> tuple[Any, bool]:
+    """``record_modes`` with the case's orders, and whether they were taken.
+
+    A version whose ``record_modes`` takes ``speeds`` gets the encoder's speed signal
+    (shaft order 1: the encoder is on the order lines' shaft). Orders a version cannot
+    place (no speed it reads) are refused with a DataError: then it gets none.
+    """
+    kw = {}
+    if case.speed == "encoder" and "speeds" in inspect.signature(record_modes).parameters:
+        kw["speeds"] = {modal_cases.ENCODER_SIGNAL: 1.0}
+    try:
+        return record_modes(cfg, record, case.orders.tolist(), **kw), True
+    except DataError:
+        return record_modes(cfg, record, [], **kw), False
+
+
+def peer_outputs(record: Any, q: int) -> np.ndarray:
+    """The outputs decimated ``q`` x (zero phase), mean removed, each at unit rms."""
+    y = np.column_stack([record[o].values for o in PAIRING["outputs"]])
+    y = scipy.signal.decimate(y - y.mean(axis=0), q, axis=0, ftype="fir", zero_phase=True)
+    return y / y.std(axis=0)
+
+
+def run_case(case: modal_cases.Case, folder: Path, memory: bool) -> dict[str, Any]:
+    """Every tool on one case: the counts per tool, the time and memory per tool."""
+    rec = read(case.spec, base_dir=modal_cases.write_case(folder, case), name=case.name)
+    cfg = case_config(case)
+    s = cfg["identify"]
+    df = 1.0 / float(s["nonparametric"]["segment"])
+    band = (float(s["frf"]["f_min"]), float(s["frf"]["f_max"]))
+    asked = coherent(case, rec, s)
+    out: dict[str, Any] = {"counts": {}, "cost": {}}
+    (ds, out["orders_taken"]), *cost = measured(lambda: gbpipe_modes(cfg, rec, case), memory)
+    out["cost"]["gbpipe (pbsid + lscf)"] = cost
+    for method in ds.method.values:
+        d = ds.sel({"method": method}).isel(pairing=0)
+        ok = np.isfinite(d.mode_frequency.values)
+        out["counts"][f"gbpipe {method}"] = score(
+            d.mode_frequency.values[ok], np.asarray(d.mode_kind.values[ok], dtype=str),
+            case, asked, df, band)
+    q = int(round(float(rec.attrs["sample_rate"]) / float(s["sample_rate"])))
+    y = peer_outputs(rec, q)
+    try:
+        found, *cost = measured(lambda: pyoma2_ssicov(
+            y, q / float(rec.attrs["sample_rate"]), int(s["stabilization"]["orders"][1])),
+            memory)
+    except Exception as exc:  # a peer's failure is a result (no rows), not the end
+        print(f"  {case.name}: pyOMA2 failed: {type(exc).__name__}: {exc}")
+        found, cost = [], [np.nan, np.nan, np.nan]
+    out["cost"]["pyOMA2 ssi-cov + hier"] = cost
+    f_peer = np.array([f for f, _ in found])
+    out["counts"]["pyOMA2 ssi-cov + hier"] = score(f_peer, np.full(f_peer.size, "mode"),
+                                                   case, asked, df, band)
+    fu = build_chain(from_assembly(case.assembly)).mechanism.undamped_frequencies()
+    out["import_error"] = float(np.max(np.abs(np.sort(fu) / case.frequency_hz - 1)))
+    return out
+
+
+def ratio(a: int, b: int) -> str:
+    return f"{a / b:6.3f}" if b else "   n/a"
+
+
+def table(cases: list[modal_cases.Case], results: list[dict[str, Any]]) -> None:
+    """The scores per tool and speed class, then the cost per tool."""
+    tools = list(results[0]["counts"])
+    print(f"\n{'tool':24s} {'speed':8s} {'cases':>5s} {'asked':>5s} {'recall':>6s} "
+          f"{'mode rows':>9s} {'precision':>9s} {'line rows':>9s} {'harmonic':>8s}")
+    for tool in tools:
+        for cls in (*SPEEDS, "all"):
+            rows = [r["counts"][tool] for c, r in zip(cases, results, strict=True)
+                    if cls in ("all", c.speed)]
+            if not rows:
+                continue
+            tot = {k: sum(r[k] for r in rows) for k in rows[0]}
+            harm = ("     n/a" if tool.startswith("pyOMA2") else
+                    f"{ratio(tot['line_harmonic'], tot['line_rows']):>8s}")
+            print(f"{tool:24s} {cls:8s} {len(rows):5d} {tot['asked']:5d} "
+                  f"{ratio(tot['found'], tot['asked'])} {tot['mode_rows']:9d} "
+                  f"{ratio(tot['true_rows'], tot['mode_rows']):>9s} {tot['line_rows']:9d} "
+                  f"{harm}")
+    print(f"{'sdypy-EMA lscf':24s} not scored: no automatic selection (select_poles is a "
+          "GUI, select_closest_poles needs the frequencies)")
+    print(f"\n{'tool':24s} {'cpu total [s]':>13s} {'cpu/case [s]':>12s} "
+          f"{'peak [MiB]':>10s}")
+    for tool in results[0]["cost"]:
+        cpu = np.array([r["cost"][tool][0] for r in results])
+        peak = np.array([r["cost"][tool][2] for r in results])
+        print(f"{tool:24s} {np.nansum(cpu):13.1f} {np.nanmean(cpu):12.2f} "
+              f"{np.nanmax(peak) if np.isfinite(peak).any() else np.nan:10.1f}")
+
+
+def main(argv: list[str] | None = None) -> None:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--random", type=int, default=30, help="number of random cases")
+    p.add_argument("--seed", type=int, default=1, help="seed of the cases")
+    p.add_argument("--duration", type=float, default=40.0, help="record length [s]")
+    p.add_argument("--memory-cases", type=int, default=2,
+                   help="cases whose peak memory is traced (a second run each)")
+    a = p.parse_args(argv)
+    logging.disable(logging.WARNING)  # pyOMA2 logs every step
+    t0 = time.process_time()
+    results, cases = [], []
+    with tempfile.TemporaryDirectory() as tmp:
+        for i, case in enumerate(modal_cases.cases(a.random, a.seed, duration=a.duration)):
+            r = run_case(case, Path(tmp), i < a.memory_cases)
+            cases.append(case)
+            results.append(r)
+            n = {t: f"{c['found']}/{c['asked']} found, {c['true_rows']}/{c['mode_rows']} "
+                 "true" for t, c in r["counts"].items()}
+            print(f"{case.name} {case.speed:7s} {case.frequency_hz.size:2d} modes, "
+                  f"{len(case.orders)} lines at {case.shaft_hz[0]:.2f} Hz; " +
+                  "; ".join(f"{t}: {v}" for t, v in n.items()), flush=True)
+    for cls in SPEEDS:
+        n = [r["orders_taken"] for c, r in zip(cases, results, strict=True) if c.speed == cls]
+        print(f"{cls}: gbpipe took the orders in {sum(n)} of {len(n)} cases")
+    print(f"\n{a.random} cases, seed {a.seed}, {a.duration:g} s at 2 kHz; gbpipe "
+          f"{Path(record_modes.__code__.co_filename).parents[2]}; worst relative "
+          "difference of gbpipe's imported undamped frequencies to openTorsion's: "
+          f"{max(r['import_error'] for r in results):.1e}")
+    table(cases, results)
+    print(f"\ntotal CPU {time.process_time() - t0:.0f} s")
+
+
+if __name__ == "__main__":
+    main()

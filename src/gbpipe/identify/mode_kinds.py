@@ -1,0 +1,350 @@
+"""Modes, order lines and noise poles told apart, from the signals themselves.
+
+A stable cluster of a stabilization diagram is one of three things:
+
+``harmonic``
+    An order line: a persistent sinusoid the fit explains with a lightly damped pole.
+    Three tests say so, each needing no tachometer:
+
+    * the **speed**: the cluster lies on an order line of a measured speed
+      (:mod:`gbpipe.identify.harmonic_lines`), or of the record's own order-1 line
+      (:func:`gbpipe.identify.harmonic_lines.order_one`);
+    * the **PDF** of the response in the cluster's band (Brincker, Andersen & Møller,
+      "Identification of harmonics in operational modal analysis", IMAC 2000; Jacobs et
+      al., "Harmonic detection in OMA", ISMA 2008): the band-passed response of a mode
+      driven by random forces is Gaussian, kurtosis 3; a sinusoid's is 1.5. The
+      statistic is the envelope form ``1.5 E|z|^4 / (E|z|^2)^2`` of the complex
+      band signal ``z``, which equals the kurtosis of the real band signal for any
+      narrow-band process of uniform phase. Its limit (:func:`kurtosis_limit`) is the
+      ``ALPHA`` quantile of that statistic under the hypothesis "a mode of the cluster's
+      frequency and damping, driven by white noise, seen through the same band filter
+      over the same duration": the sampling spread for the band's number of independent
+      samples, drawn by Monte Carlo on the band's own correlation, not a tuned number;
+    * the **drift**: a line follows its shaft's speed, so the peak in the cluster's band
+      moves with time along a monotonic track (a run-up, a slow drift: the line sweeps
+      through the band and its PDF there is bursty, not a sinusoid's); a mode's peak
+      jitters at random. Spearman's rank correlation of the peak frequency of each
+      Welch segment with time (:func:`peak_drift`), p below ``ALPHA``;
+    * the **damping**: a half-power bandwidth ``2 ζ f`` narrower than the record's
+      frequency resolution ``1 / T`` (a decay longer than the record) cannot be told from
+      a line: ``ζ < 1 / (2 f T)``.
+``spurious``
+    A pole fitted to noise: no frequency line of the nonparametric estimate within the
+    cluster's band reaches ``identify.nonparametric.coherence_min`` (the coherence the
+    identify stage trusts). Across repeats (:mod:`gbpipe.identify.mode_groups`): a
+    cluster found in fewer than half the records of its group.
+``mode``
+    Everything else.
+
+docs/modal.md, "Criteria".
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from typing import NamedTuple
+
+import numpy as np
+from scipy import signal, stats
+
+from gbpipe.identify.harmonic_lines import HarmonicBands, order_one
+
+__all__ = ["KINDS", "ALPHA", "Evidence", "band_envelope", "kurtosis_statistic",
+           "kurtosis_limit", "peak_drift", "resolvable_damping", "cluster_evidence",
+           "on_line", "Cluster", "PairingData", "record_evidence"]
+
+#: The kinds of a cluster.
+KINDS = ("mode", "harmonic", "spurious")
+#: False-alarm probability of the PDF test: the chance that a true mode is called a line
+#: (per output; divided among the outputs tested, Bonferroni).
+ALPHA = 1e-3
+#: Monte Carlo draws of the statistic under the mode hypothesis (its mean and spread of
+#: the log; the log-normal tail is taken, see :func:`kurtosis_limit`).
+_DRAWS = 1000
+#: Order of the Butterworth low-pass of the complex demodulation (applied forward and
+#: backward: |L|^4 of an order-4 filter, flat to within 0.1 dB to 0.7 of the cut-off).
+_FILTER_ORDER = 4
+
+
+class Evidence(NamedTuple):
+    """What the data say of one cluster.
+
+    Attributes
+    ----------
+    kind : str
+        ``mode``, ``harmonic`` or ``spurious`` (:data:`KINDS`).
+    text : str
+        Why, in words.
+    kurtosis : float
+        Lowest band kurtosis over the outputs [1] (sinusoid 1.5, Gaussian 3).
+    kurtosis_limit : float
+        Its limit under the mode hypothesis for that output [1].
+    coherence : float
+        Highest coherence of the estimate within the cluster's band [1].
+    line_order : float
+        Order of the line the cluster lies on [1]; NaN for none.
+    """
+
+    kind: str
+    text: str
+    kurtosis: float
+    kurtosis_limit: float
+    coherence: float
+    line_order: float
+
+
+def _half_width(frequency_hz: float, damping: float, resolution_hz: float) -> float:
+    # the band around a cluster: its half-power band twice over, at least one frequency
+    # line of the estimate on each side (a line cannot be located better than that)
+    return max(resolution_hz, 2.0 * damping * frequency_hz)
+
+
+def band_envelope(x: np.ndarray, fs: float, f0: float, half_width: float
+                  ) -> tuple[np.ndarray, float]:
+    """The complex band signal of ``x`` around ``f0``: demodulated, low-passed, decimated.
+
+    Parameters
+    ----------
+    x : ndarray, shape (N,)
+        Signal, any unit, sampled at ``fs`` [Hz].
+    f0 : float
+        Centre of the band [Hz].
+    half_width : float
+        Half-width of the band [Hz] (the low-pass cut-off).
+
+    Returns
+    -------
+    z : ndarray of complex, shape (M,)
+        The band signal (``x``'s unit), sampled at four times the half-width or more,
+        without the filter's start-up at either end.
+    fs_z : float
+        Its sample rate [Hz].
+    """
+    t = np.arange(x.size) / fs
+    cut = min(half_width, 0.45 * fs)
+    sos = signal.butter(_FILTER_ORDER, cut, fs=fs, output="sos")
+    z = signal.sosfiltfilt(sos, (x - x.mean()) * np.exp(-2j * np.pi * f0 * t))
+    # the filter's start-up at either end (the record's first sample is a step from the
+    # padding): a burst that no mode makes, dropped; 2 / cut is about three time
+    # constants of the order-4 low-pass
+    edge = min(int(2.0 * fs / cut), x.size // 4)
+    step = max(1, int(fs // (4.0 * cut)))
+    return z[edge:x.size - edge:step], fs / step
+
+
+def kurtosis_statistic(z: np.ndarray) -> np.ndarray:
+    """``1.5 E|z|^4 / (E|z|^2)^2`` along the last axis: the kurtosis of the real band signal
+    (sinusoid 1.5, Gaussian 3) [1]."""
+    p = np.abs(z) ** 2
+    return 1.5 * np.mean(p ** 2, axis=-1) / np.mean(p, axis=-1) ** 2
+
+
+def kurtosis_limit(f0: float, damping: float, half_width: float, fs_z: float, n: int,
+                   alpha: float, rng: np.random.Generator) -> float:
+    """Lowest band kurtosis a mode of ``f0``, ``damping`` gives with probability 1 - alpha.
+
+    The hypothesis: the response of a single mode of natural frequency ``f0`` [Hz] and
+    damping ratio ``damping`` [1] to white noise, through the band filter of
+    :func:`band_envelope` (``half_width`` [Hz]), ``n`` samples at ``fs_z`` [Hz]. Its
+    complex band signal is drawn ``_DRAWS`` times by shaping white Gaussian noise with
+    the mode's and the filter's spectrum; the limit is ``exp(mean - z_alpha sd)`` of the
+    log statistic (the sample kurtosis is bounded below by 1 and skewed: its log is
+    nearer normal). The fewer independent samples the band holds (light damping, short
+    record), the wider the spread and the lower the limit.
+    """
+    nu = np.fft.fftfreq(n, 1.0 / fs_z)
+    f = f0 + nu
+    mode = 1.0 / np.abs(f0 ** 2 - f ** 2 + 2j * damping * f0 * f) ** 2
+    low = 1.0 / (1.0 + (nu / half_width) ** (2 * _FILTER_ORDER)) ** 2
+    shape = np.sqrt(mode * low)
+    logs = []
+    for _ in range(0, _DRAWS, 250):  # batches bound the memory of long bands
+        w = rng.standard_normal((250, n)) + 1j * rng.standard_normal((250, n))
+        logs.append(np.log(kurtosis_statistic(np.fft.ifft(w * shape, axis=1))))
+    lg = np.concatenate(logs)
+    return float(np.exp(lg.mean() - stats.norm.isf(alpha) * lg.std(ddof=1)))
+
+
+def peak_drift(x: np.ndarray, fs: float, f0: float, half_width: float, segment: float
+               ) -> tuple[float, float, int]:
+    """Does the spectral peak in ``f0 ± half_width`` drift with time, as a shaft's line does?
+
+    The peak frequency of each non-overlapping Hann segment of ``segment`` [s] (4x
+    zero-padded) within the band, against time: Spearman's rank correlation and its
+    two-sided p-value (:func:`scipy.stats.spearmanr`). A line follows its shaft's speed,
+    which drifts smoothly: a monotonic track; a mode's peak jitters at random about its
+    frequency (no trend under the hypothesis of a mode: p uniform).
+
+    Returns
+    -------
+    rho : float
+        Rank correlation of peak frequency and time [1] (NaN: a constant track).
+    p : float
+        Its p-value [1] (1 for a constant track).
+    n : int
+        Segments [1].
+    """
+    n = int(round(segment * fs))
+    f, _, pxx = signal.spectrogram(x - x.mean(), fs, nperseg=n, noverlap=0, nfft=4 * n)
+    band = np.abs(f - f0) <= half_width
+    if pxx.shape[1] < 4 or band.sum() < 2:
+        return np.nan, 1.0, pxx.shape[1]
+    track = f[band][np.argmax(pxx[band], axis=0)]
+    if np.ptp(track) == 0:
+        return np.nan, 1.0, track.size
+    res = stats.spearmanr(np.arange(track.size), track)
+    return float(res.statistic), float(res.pvalue), track.size
+
+
+def resolvable_damping(frequency_hz: float, duration_s: float) -> float:
+    """Smallest damping ratio a record of ``duration_s`` [s] resolves at ``frequency_hz``
+    [Hz]: half-power bandwidth ``2 ζ f`` equal to the resolution ``1 / T`` [1]."""
+    return 1.0 / (2.0 * frequency_hz * duration_s)
+
+
+def on_line(frequency_hz: float, bands: HarmonicBands) -> float:
+    """Order of the band ``frequency_hz`` [Hz] lies in (the lowest), NaN for none."""
+    inside = (bands.low_hz <= frequency_hz) & (frequency_hz <= bands.high_hz)
+    return float(bands.order[inside][0]) if inside.any() else np.nan
+
+
+def cluster_evidence(frequency_hz: float, damping: float, outputs: Sequence[np.ndarray],
+                     names: Sequence[str], fs: float, coherence_f: np.ndarray,
+                     coherence: np.ndarray, resolution_hz: float, coherence_min: float,
+                     bands: HarmonicBands, rng: np.random.Generator) -> Evidence:
+    """The kind of one cluster and why (module docstring).
+
+    Parameters
+    ----------
+    frequency_hz, damping : float
+        The cluster [Hz], [1].
+    outputs : sequence of ndarray
+        The pairing's conditioned output signals, sampled at ``fs`` [Hz].
+    names : sequence of str
+        Their names (for the evidence).
+    coherence_f, coherence : ndarray
+        Frequencies [Hz] of the nonparametric estimate and its highest coherence over the
+        FRF elements at each [1].
+    resolution_hz : float
+        Frequency resolution of the estimate [Hz].
+    coherence_min : float
+        ``identify.nonparametric.coherence_min`` [1].
+    bands : HarmonicBands
+        The order lines of a measured speed (empty without one).
+    rng : numpy.random.Generator
+        For the Monte Carlo draws of the kurtosis limit.
+    """
+    f, zeta = float(frequency_hz), float(damping)
+    w = _half_width(f, zeta, resolution_hz)
+    duration = outputs[0].size / fs
+    zeta_res = resolvable_damping(f, duration)
+    alpha = ALPHA / len(outputs)
+    kurt, limit, worst = np.inf, np.nan, ""
+    drift = (np.nan, 1.0, 0, "")
+    for x, name in zip(outputs, names, strict=True):
+        z, fs_z = band_envelope(np.asarray(x, float), fs, f, w)
+        k = float(kurtosis_statistic(z))
+        lim = kurtosis_limit(f, max(zeta, zeta_res), w, fs_z, z.size, alpha, rng)
+        if k - lim < kurt - (limit if np.isfinite(limit) else 0.0):
+            kurt, limit, worst = k, lim, name
+        d = peak_drift(np.asarray(x, float), fs, f, w, 1.0 / resolution_hz)
+        if d[1] < drift[1]:
+            drift = (*d, name)
+    near = np.abs(coherence_f - f) <= w
+    coh = float(np.max(coherence[near])) if near.any() else float(
+        coherence[np.argmin(np.abs(coherence_f - f))])
+    order = on_line(f, bands)
+    band = f"{f - w:.1f}-{f + w:.1f} Hz"
+    # a known order line inside the band makes its PDF a line's whatever the cluster:
+    # there the speed decides, not the PDF (a mode beside a line stays a mode)
+    crossed = bands.order[(bands.low_hz <= f + w) & (bands.high_hz >= f - w)]
+    pdf_test = np.isfinite(order) or not crossed.size
+    facts = [f"kurtosis {kurt:.2f} in {band} of {worst} (sinusoid 1.5, Gaussian 3; a mode "
+             f"of this damping gives >= {limit:.2f} with {100 * (1 - alpha):.2f} %)",
+             f"peak frequency vs time in {band} of {drift[3] or worst}: Spearman "
+             f"{drift[0]:.2f}, p {drift[1]:.1e} over {drift[2]} segments",
+             f"damping {zeta:.4f} (the record resolves >= {zeta_res:.5f})",
+             *([] if pdf_test else [f"the band holds order line(s) "
+                                    f"{', '.join(f'{k:.4g}' for k in crossed)}: the PDF "
+                                    "test does not decide"]),
+             f"coherence <= {coh:.2f} in {band}"]
+    if np.isfinite(order):
+        kind, why = "harmonic", f"order {order:.4g} of {bands.source}"
+    elif zeta < zeta_res:
+        kind, why = "harmonic", (f"damping {zeta:.5f} below the record's resolution "
+                                 f"{zeta_res:.5f} (decays slower than the {duration:.0f} s "
+                                 "record)")
+    elif kurt < limit and pdf_test:
+        kind, why = "harmonic", f"kurtosis {kurt:.2f} below {limit:.2f} (sinusoid)"
+    elif drift[1] < alpha and pdf_test:
+        kind, why = "harmonic", (f"its peak drifts with time (Spearman {drift[0]:.2f}, p "
+                                 f"{drift[1]:.1e} < {alpha:.1e}): a line following a shaft's "
+                                 "speed")
+    elif coh < coherence_min:
+        kind, why = "spurious", (f"coherence {coh:.2f} below coherence_min "
+                                 f"{coherence_min:g} in {band} (noise fitted)")
+    else:
+        kind, why = "mode", "Gaussian in its band, resolved, coherent" + (
+            f", on no order line of {bands.source}" if bands.source else "")
+    return Evidence(kind, f"{why}; " + "; ".join(facts), kurt, limit, coh, order)
+
+
+class Cluster(NamedTuple):
+    """One cluster to judge: its pairing (index) and its frequency [Hz] and damping [1]."""
+
+    pairing: int
+    frequency_hz: float
+    damping: float
+
+
+class PairingData(NamedTuple):
+    """What the tests read of one pairing: its conditioned outputs (``y`` (N, ny), names,
+    rate ``fs`` [Hz]) and the highest coherence over its FRF elements [1] per frequency
+    [Hz] of its nonparametric estimate."""
+
+    y: np.ndarray
+    names: Sequence[str]
+    fs: float
+    frequency: np.ndarray
+    coherence: np.ndarray
+
+
+def record_evidence(clusters: Sequence[Cluster], data: Sequence[PairingData],
+                    bands: HarmonicBands, orders: Sequence[float], resolution_hz: float,
+                    coherence_min: float, n_harmonics: int, f_max: float, seed: int,
+                    speeds: Mapping[str, tuple[float, float]] | None = None
+                    ) -> tuple[list[Evidence], HarmonicBands]:
+    """The evidence of every cluster of a record, and the order lines used.
+
+    With a measured speed (``bands`` not empty) each cluster is judged once
+    (:func:`cluster_evidence`). Without one, the clusters the PDF or damping test found
+    to be sinusoids give the record's own order-1 line (:func:`order_one`), the user's
+    ``orders`` scale from it, and any other cluster on those lines is relabelled
+    ``harmonic``.
+
+    Parameters
+    ----------
+    seed : int
+        Seed of the Monte Carlo draws (the config's root ``seed``).
+    speeds : mapping str -> (float, float), optional
+        Speed signals no ``shaft_order`` places -> their shaft's frequency range [Hz]:
+        candidates for order 1 (:func:`order_one`).
+    """
+    rng = np.random.default_rng(seed)
+    ev = [cluster_evidence(c.frequency_hz, c.damping, list(data[c.pairing].y.T),
+                           data[c.pairing].names, data[c.pairing].fs,
+                           data[c.pairing].frequency, data[c.pairing].coherence,
+                           resolution_hz, coherence_min, bands, rng) for c in clusters]
+    if bands.source:
+        return ev, bands
+    lines = np.array([c.frequency_hz for c, e in zip(clusters, ev, strict=True)
+                      if e.kind == "harmonic"])
+    own = order_one(lines, orders, resolution_hz, n_harmonics, f_max, speeds)
+    for k, c in enumerate(clusters):
+        order = on_line(c.frequency_hz, own)
+        if np.isfinite(order):
+            if ev[k].kind != "harmonic":
+                text = f"order {order:.4g} of {own.source}; " + ev[k].text.split("; ", 1)[1]
+                ev[k] = ev[k]._replace(kind="harmonic", text=text)
+            ev[k] = ev[k]._replace(line_order=order)
+    return ev, own

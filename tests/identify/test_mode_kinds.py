@@ -1,0 +1,242 @@
+"""Modes, order lines and noise poles told apart: each criterion against a closed form or
+an independent simulation (scipy), and on records with known modes and lines."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import xarray as xr
+from scipy import signal, stats
+
+from gbpipe.config import load, merge
+from gbpipe.errors import DataError
+from gbpipe.identify import modes_table_rows, record_modes
+from gbpipe.identify.harmonic_lines import HarmonicBands, order_one, speed_frequency_range
+from gbpipe.identify.mode_kinds import (
+    ALPHA,
+    band_envelope,
+    cluster_evidence,
+    kurtosis_limit,
+    kurtosis_statistic,
+    peak_drift,
+    resolvable_damping,
+)
+from tests.conftest import CONFIG
+
+FS = 1000.0
+NO_LINES = HarmonicBands(np.array([]), np.array([]), np.array([]), (np.nan, np.nan))
+
+
+def _sdof(f0: float, zeta: float, n: int, rng: np.random.Generator) -> np.ndarray:
+    # scipy's exact discretisation of a mode driven by white noise (not gbpipe's draw)
+    wn = 2 * np.pi * f0
+    sysd = signal.cont2discrete((np.array([[0, 1], [-wn ** 2, -2 * zeta * wn]]),
+                                 np.array([[0], [1.0]]), np.array([[0, 1.0]]),
+                                 np.zeros((1, 1))), 1 / FS)
+    b, a = signal.ss2tf(*sysd[:4])
+    return signal.lfilter(b[0], a, rng.standard_normal(n))
+
+
+def test_band_kurtosis_of_a_sine_in_noise_is_the_closed_form():
+    # x = A sin + Gaussian noise n: kurtosis 3 - 1.5 p^2, p the sine's share of the band
+    # power (E s^4 = 3 A^4 / 8, E s^2 = A^2 / 2); the noise's band power measured alone
+    rng = np.random.default_rng(1)
+    t = np.arange(int(120 * FS)) / FS
+    noise = rng.standard_normal(t.size)
+    for amp in (0.05, 0.1, 0.3):
+        x = amp * np.sin(2 * np.pi * 37.0 * t + 0.4) + noise
+        z, _ = band_envelope(x, FS, 37.0, 1.0)
+        zn, _ = band_envelope(noise, FS, 37.0, 1.0)
+        # the real band signal is 2 Re z: its power 2 E|z|^2
+        p = (amp ** 2 / 2) / (amp ** 2 / 2 + 2 * np.mean(np.abs(zn) ** 2))
+        assert float(kurtosis_statistic(z)) == pytest.approx(3 - 1.5 * p ** 2, abs=0.12)
+    # and it is the kurtosis of the real band signal (scipy.stats, on scipy's band-pass)
+    sos = signal.butter(4, [36.0, 38.0], "bandpass", fs=FS, output="sos")
+    xb = signal.sosfiltfilt(sos, 0.1 * np.sin(2 * np.pi * 37.0 * t) + noise)[5000:-5000]
+    z, _ = band_envelope(0.1 * np.sin(2 * np.pi * 37.0 * t) + noise, FS, 37.0, 1.0)
+    assert float(kurtosis_statistic(z)) == pytest.approx(stats.kurtosis(xb, fisher=False),
+                                                         abs=0.1)
+
+
+@pytest.mark.parametrize(("f0", "zeta"), [(24.0, 0.01), (150.0, 0.03)])
+def test_kurtosis_limit_holds_for_modes_and_not_for_lines(f0, zeta):
+    """The limit (drawn by FFT-shaped noise) against modes scipy simulates: no mode of 40
+    falls below it (ALPHA = 0.1 % each), and a line 10 dB over the noise floor in the
+    band does."""
+    rng = np.random.default_rng(2)
+    n = int(40 * FS)
+    w = max(1.0, 2 * zeta * f0)
+    k_modes = []
+    for _ in range(40):
+        y = _sdof(f0, zeta, n, rng)
+        z, fs_z = band_envelope(y + 0.1 * y.std() * rng.standard_normal(n), FS, f0, w)
+        k_modes.append(float(kurtosis_statistic(z)))
+    limit = kurtosis_limit(f0, zeta, w, fs_z, z.size, ALPHA, np.random.default_rng(0))
+    assert 1.5 < limit < 3.0
+    assert min(k_modes) > limit, (min(k_modes), limit)
+    assert abs(np.mean(k_modes) - 3.0) < 0.15  # a mode's band response is Gaussian
+    t = np.arange(n) / FS
+    zn, _ = band_envelope(y, FS, f0, w)
+    amp = np.sqrt(2 * 10 * 2 * np.mean(np.abs(zn) ** 2))  # A^2 / 2 = 10x the band's
+    z, _ = band_envelope(y + amp * np.sin(2 * np.pi * f0 * t), FS, f0, w)
+    assert float(kurtosis_statistic(z)) < limit
+
+
+def test_a_line_sweeping_through_the_band_drifts_a_mode_does_not():
+    """A line whose shaft speeds up 1 % (254 -> 256.5 Hz, through a 1 Hz band: its PDF
+    there is bursty, not a sinusoid's) has a monotonic peak track; the peaks of modes
+    scipy simulates have none (p above ALPHA in each of 20 records)."""
+    rng = np.random.default_rng(6)
+    n = int(40 * FS)
+    t = np.arange(n) / FS
+    f_line = 254.0 * (1 + 0.01 * t / t[-1])
+    x = np.sin(2 * np.pi * np.cumsum(f_line) / FS) + 0.3 * rng.standard_normal(n)
+    rho, p, segs = peak_drift(x, FS, 255.2, 1.0, 2.0)
+    assert segs == 20 and rho > 0.9 and p < ALPHA
+    z, _ = band_envelope(x, FS, 255.2, 0.5)
+    assert float(kurtosis_statistic(z)) > 2.5  # the PDF test alone would not see it
+    for _ in range(20):
+        y = _sdof(111.0, 0.005, n, rng)
+        assert peak_drift(y, FS, 111.0, 1.11, 2.0)[1] > ALPHA
+
+
+def test_damping_below_the_records_resolution_is_a_line():
+    assert resolvable_damping(50.0, 40.0) == pytest.approx(1 / (2 * 50 * 40))
+    rng = np.random.default_rng(3)
+    y = _sdof(50.0, 0.02, int(40 * FS), rng)[:, None]
+    f = np.linspace(0, 500, 501)
+    ev = cluster_evidence(50.0, 0.2 * resolvable_damping(50.0, 40.0), [y[:, 0]], ["y"], FS,
+                          f, np.ones_like(f), 1.0, 0.6, NO_LINES, rng)
+    assert ev.kind == "harmonic" and "resolution" in ev.text
+    ev = cluster_evidence(50.0, 0.02, [y[:, 0]], ["y"], FS, f, np.ones_like(f), 1.0, 0.6,
+                          NO_LINES, rng)
+    assert ev.kind == "mode", ev.text
+
+
+def test_a_pole_where_nothing_is_coherent_is_spurious():
+    rng = np.random.default_rng(4)
+    y = _sdof(80.0, 0.02, int(40 * FS), rng)
+    f = np.linspace(0, 500, 1001)
+    coh = np.where(np.abs(f - 80.0) < 5, 0.3, 0.95)  # incoherent around the pole only
+    ev = cluster_evidence(80.0, 0.02, [y], ["y"], FS, f, coh, 0.5, 0.6, NO_LINES, rng)
+    assert ev.kind == "spurious" and "coherence 0.30" in ev.text
+    ev = cluster_evidence(80.0, 0.02, [y], ["y"], FS, f, coh, 0.5, 0.25, NO_LINES, rng)
+    assert ev.kind == "mode"
+
+
+def test_speed_signal_gives_the_reference_shafts_range():
+    # a shaft at twice the reference speed, sweeping 20 -> 22 Hz (reference 10 -> 11 Hz),
+    # with encoder noise: averaged over 1 s segments, the ends are the segment means of
+    # the linear sweep, 10 + 0.5 / 60 and 11 - 0.5 / 60 Hz
+    t = np.arange(int(60 * FS)) / FS
+    speed = 2 * np.pi * (20.0 + 2.0 * t / t[-1])
+    noisy = speed + 5.0 * np.random.default_rng(5).standard_normal(t.size)
+    lo, hi = speed_frequency_range(noisy, FS, 2.0, 1.0)
+    assert lo == pytest.approx(10.0 + 0.5 / 60, abs=0.02)
+    assert hi == pytest.approx(11.0 - 0.5 / 60, abs=0.02)
+    with pytest.raises(DataError, match="reverses"):
+        speed_frequency_range(np.sin(2 * np.pi * 0.05 * t), FS, 1.0, 1.0)
+
+
+def test_order_one_is_the_line_whose_multiples_hold_the_others():
+    lines = np.array([53.6, 53.8, 107.5, 71.7, 161.2])
+    b = order_one(lines, [4 / 3], 0.5, 3, 400.0)
+    assert b.shaft_hz == (53.6, 53.8)
+    assert b.order.tolist() == [1.0, 4 / 3, 2.0, 3.0]
+    for f in lines:  # every line is on one of its orders
+        assert np.any((b.low_hz <= f) & (f <= b.high_hz))
+    assert "53.60 Hz" in b.source
+    # a speed signal of the shaft (no shaft_order) that holds as many lines is preferred
+    # (a measured range); one that holds none is not taken
+    b = order_one(lines, [4 / 3], 0.5, 3, 400.0, {"enc": (53.55, 53.85)})
+    assert b.shaft_hz == (53.55, 53.85) and "enc" in b.source
+    b = order_one(lines, [], 0.5, 3, 400.0, {"enc": (12.0, 12.1)})
+    assert "enc" not in b.source
+    assert order_one(np.array([]), [], 0.5, 3).order.size == 0
+
+
+# -- records with one known mode and known lines, with a tacho, a speed signal, or none --
+
+F0, ZETA, SHAFT = 40.0, 0.02, (10.95, 11.05)  # Hz, -, Hz (the shaft's slow drift)
+LINE_ORDERS = (1.0, 2.0, 7.0)  # unbalance, misalignment, a mesh of 7 teeth
+
+
+def _lines_record(speed: str, seed: int = 8) -> xr.Dataset:
+    """A torsional oscillator (J = 0.5 kg m^2) under a white motor torque plus the
+    angle-locked torques of a shaft drifting over ``SHAFT``; the output is its speed with
+    2 % noise. ``speed``: ``tacho`` (1 pulse per rev), ``speed`` (a speed signal of a
+    shaft at twice the reference) or ``none``."""
+    rng = np.random.default_rng(seed)
+    t = np.arange(int(40 * FS)) / FS
+    f_shaft = SHAFT[0] + (SHAFT[1] - SHAFT[0]) * t / t[-1]
+    theta = 2 * np.pi * np.cumsum(f_shaft) / FS
+    u = 50.0 * rng.standard_normal(t.size)
+    lines = sum(a * np.sin(k * theta + rng.uniform(0, 6)) for k, a in
+                zip(LINE_ORDERS, (400.0, 300.0, 400.0), strict=True))
+    wn = 2 * np.pi * F0
+    sysd = signal.cont2discrete((np.array([[0, 1], [-wn ** 2, -2 * ZETA * wn]]),
+                                 np.array([[0], [2.0]]), np.array([[0, 1.0]]),
+                                 np.zeros((1, 1))), 1 / FS)
+    _, y, _ = signal.dlsim(sysd[:4] + (1 / FS,), u + lines, t)
+    y = y[:, 0] + 0.02 * y.std() * rng.standard_normal(t.size)
+    attrs = {"units": "N m", "long_name": "torque"}
+    data = {"torque": ("time", u + 0.3 * lines, attrs),
+            "speed": ("time", y, {"units": "rad/s", "long_name": "speed"})}
+    if speed == "speed":
+        data["shaft2"] = ("time", 2 * 2 * np.pi * f_shaft + rng.standard_normal(t.size),
+                          {"units": "rad/s", "long_name": "speed of the shaft at 2x"})
+    out = xr.Dataset(data, coords={"time": ("time", t, {"units": "s", "long_name": "time"})},
+                     attrs={"sample_rate": FS, "record": "lines", "record_kind": "measured"})
+    if speed == "tacho":
+        pulses = np.interp(np.arange(1, int(theta[-1] / (2 * np.pi))) * 2 * np.pi, theta, t)
+        out["pulse_time"] = ("pulse", pulses, {"units": "s", "long_name": "pulse time"})
+        out.attrs["pulses_per_rev"] = 1
+    return out
+
+
+@pytest.mark.parametrize("speed", ["tacho", "speed", "none"])
+def test_kinds_of_a_record_with_known_mode_and_lines(speed):
+    cfg = merge(load(CONFIG), {"campaign": {"settle": 1.0}, "identify": {
+        "versions": ["raw"], "pairings": [{"name": "T_w", "inputs": ["torque"],
+                                           "outputs": ["speed"]}]}})
+    rec = _lines_record(speed)
+    ds = record_modes(cfg, rec, orders=[7.0], speeds={"shaft2": 2.0} if speed == "speed"
+                      else None)
+    res = 1.0 / cfg["identify"]["nonparametric"]["segment"]
+    on_line = [(k * SHAFT[0] - res, k * SHAFT[1] + res) for k in (*LINE_ORDERS, 3.0)]
+    rows = modes_table_rows(ds, "lines")
+    assert rows
+    found, n_lines = False, 0
+    for r in rows:
+        f = r["frequency_hz"]
+        if any(lo <= f <= hi for lo, hi in on_line):
+            assert r["kind"] == "harmonic", r
+            n_lines += 1
+        elif abs(f - F0) <= 0.01 * F0:
+            assert r["kind"] == "mode", r
+            found = True
+        else:  # no other mode in the record: anything else is not a mode
+            assert r["kind"] != "mode", r
+    assert found and n_lines >= 2  # the lines do make stable clusters: the test bites
+    # the model order holds the mode and the diagram's lines, and no lower order does
+    tol = cfg["identify"]["stabilization"]["frequency_tolerance"]
+    d = ds.sel({"method": "pbsid"}).isel(pairing=0)
+    f = d.mode_frequency.values
+    need = f[np.isin(d.mode_kind.values, ["mode", "harmonic"])]
+    held = [all(np.nanmin(np.abs(p - fk), initial=np.inf) <= tol * fk for fk in need)
+            for p in d.pole_frequency.values]
+    assert int(d.model_order) == int(d.order.values[held.index(True)])
+
+
+def test_lines_alone_set_no_model_order():
+    """With the band ending below the 40 Hz mode, the diagrams hold only the order lines
+    at 11 and 22 Hz: they are labelled and reported, but set no model order."""
+    cfg = merge(load(CONFIG), {"campaign": {"settle": 1.0}, "identify": {
+        "versions": ["raw"], "frf": {"f_max": 35.0},
+        "pairings": [{"name": "T_w", "inputs": ["torque"], "outputs": ["speed"]}]}})
+    ds = record_modes(cfg, _lines_record("tacho"))
+    d = ds.sel({"method": "pbsid"}).isel(pairing=0)
+    f = d.mode_frequency.values
+    assert np.isfinite(f).sum() >= 1
+    assert set(d.mode_kind.values[np.isfinite(f)]) == {"harmonic"}
+    assert int(d.model_order) == 0 and str(d.status.values).startswith("no mode")
