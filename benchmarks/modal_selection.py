@@ -29,7 +29,10 @@ Scoring, the same for every tool, on the rows in 5-350 Hz:
   the tolerance ``max(2 df, zeta f / 2)``: twice the resolution ``df``, or a quarter of
   the mode's half-power bandwidth ``2 zeta f``; each truth mode takes at most one row
   (the closest), a second is a duplicate;
-* recall: truth modes in the coherent band matched by a ``mode`` row;
+* recall: truth modes in the coherent band (``asked``) matched by a ``mode`` row; and the
+  same over those of them a resonance of the chain's true FRF shows (``shown``: a peak of
+  at least 3 dB prominence from the motor torque to an output within the mode's
+  tolerance; a mode with little participation at the input or the outputs shows none);
 * precision: ``mode`` rows matching a truth mode (any of the chain's: a real mode is no
   false claim) over all ``mode`` rows; a row labelled ``harmonic`` or ``spurious`` is no
   claim of a mode;
@@ -117,13 +120,33 @@ def coherent(case: modal_cases.Case, record: Any, s: dict) -> np.ndarray:
     return band & (at >= s["nonparametric"]["coherence_min"])
 
 
+def visible(case: modal_cases.Case, df: float, band: tuple[float, float]) -> np.ndarray:
+    """Mask of the truth modes a resonance of the chain's true FRF shows: a peak of at least
+    3 dB prominence (from the motor torque to either output, 0.05 Hz grid) within the
+    mode's tolerance."""
+    a, b, c, _ = case.plant
+    f = np.arange(band[0], band[1], 0.05)
+    h = np.array([c[:2] @ np.linalg.solve(2j * np.pi * fk * np.eye(len(a)) - a, b[:, 0])
+                  for fk in f])
+    peaks = np.concatenate([f[scipy.signal.find_peaks(20 * np.log10(np.abs(h[:, k])),
+                                                      prominence=3.0)[0]] for k in (0, 1)])
+    tol = tolerance(case, df)
+    return np.array([np.any(np.abs(peaks - fm) <= t) for fm, t in
+                     zip(case.frequency_hz, tol, strict=True)])
+
+
+def tolerance(case: modal_cases.Case, df: float) -> np.ndarray:
+    """Frequency tolerance of each truth mode [Hz]: ``max(2 df, zeta f / 2)``."""
+    return np.maximum(2 * df, 0.5 * case.damping * case.frequency_hz)
+
+
 def score(f_rows: np.ndarray, kinds: np.ndarray, case: modal_cases.Case, asked: np.ndarray,
-          df: float, band: tuple[float, float]) -> dict[str, int]:
+          shown: np.ndarray, df: float, band: tuple[float, float]) -> dict[str, int]:
     """Counts of one tool on one case (module docstring)."""
     keep = (f_rows >= band[0]) & (f_rows <= band[1])
     f_rows, kinds = f_rows[keep], kinds[keep]
     f_t = case.frequency_hz
-    tol = np.maximum(2 * df, 0.5 * case.damping * f_t)
+    tol = tolerance(case, df)
     is_mode = ~np.isin(kinds, NOT_MODE)
     d = np.abs(f_rows[:, None] - f_t[None, :]) / tol[None, :]
     nearest = np.argmin(d, axis=1) if f_rows.size else np.zeros(0, int)
@@ -140,6 +163,7 @@ def score(f_rows: np.ndarray, kinds: np.ndarray, case: modal_cases.Case, asked: 
         on_line |= (f_rows >= k * lo - df) & (f_rows <= k * hi + df)
     on_line &= ~hit
     return {"asked": int(asked.sum()), "found": int((found & asked).sum()),
+            "shown": int((asked & shown).sum()), "found_shown": int((found & asked & shown).sum()),
             "mode_rows": int(is_mode.sum()), "true_rows": int(true_rows),
             "line_rows": int(on_line.sum()),
             "line_harmonic": int((on_line & (kinds == "harmonic")).sum())}
@@ -176,6 +200,7 @@ def run_case(case: modal_cases.Case, folder: Path, memory: bool) -> dict[str, An
     df = 1.0 / float(s["nonparametric"]["segment"])
     band = (float(s["frf"]["f_min"]), float(s["frf"]["f_max"]))
     asked = coherent(case, rec, s)
+    shown = visible(case, df, band)
     out: dict[str, Any] = {"counts": {}, "cost": {}}
     (ds, out["orders_taken"]), *cost = measured(lambda: gbpipe_modes(cfg, rec, case), memory)
     out["cost"]["gbpipe (pbsid + lscf)"] = cost
@@ -184,7 +209,7 @@ def run_case(case: modal_cases.Case, folder: Path, memory: bool) -> dict[str, An
         ok = np.isfinite(d.mode_frequency.values)
         out["counts"][f"gbpipe {method}"] = score(
             d.mode_frequency.values[ok], np.asarray(d.mode_kind.values[ok], dtype=str),
-            case, asked, df, band)
+            case, asked, shown, df, band)
     q = int(round(float(rec.attrs["sample_rate"]) / float(s["sample_rate"])))
     y = peer_outputs(rec, q)
     try:
@@ -197,7 +222,7 @@ def run_case(case: modal_cases.Case, folder: Path, memory: bool) -> dict[str, An
     out["cost"]["pyOMA2 ssi-cov + hier"] = cost
     f_peer = np.array([f for f, _ in found])
     out["counts"]["pyOMA2 ssi-cov + hier"] = score(f_peer, np.full(f_peer.size, "mode"),
-                                                   case, asked, df, band)
+                                                   case, asked, shown, df, band)
     fu = build_chain(from_assembly(case.assembly)).mechanism.undamped_frequencies()
     out["import_error"] = float(np.max(np.abs(np.sort(fu) / case.frequency_hz - 1)))
     return out
@@ -211,7 +236,8 @@ def table(cases: list[modal_cases.Case], results: list[dict[str, Any]]) -> None:
     """The scores per tool and speed class, then the cost per tool."""
     tools = list(results[0]["counts"])
     print(f"\n{'tool':24s} {'speed':8s} {'cases':>5s} {'asked':>5s} {'recall':>6s} "
-          f"{'mode rows':>9s} {'precision':>9s} {'line rows':>9s} {'harmonic':>8s}")
+          f"{'shown':>5s} {'recall':>6s} {'mode rows':>9s} {'precision':>9s} {'line rows':>9s} "
+          f"{'harmonic':>8s}")
     for tool in tools:
         for cls in (*SPEEDS, "all"):
             rows = [r["counts"][tool] for c, r in zip(cases, results, strict=True)
@@ -222,7 +248,8 @@ def table(cases: list[modal_cases.Case], results: list[dict[str, Any]]) -> None:
             harm = ("     n/a" if tool.startswith("pyOMA2") else
                     f"{ratio(tot['line_harmonic'], tot['line_rows']):>8s}")
             print(f"{tool:24s} {cls:8s} {len(rows):5d} {tot['asked']:5d} "
-                  f"{ratio(tot['found'], tot['asked'])} {tot['mode_rows']:9d} "
+                  f"{ratio(tot['found'], tot['asked'])} {tot['shown']:5d} "
+                  f"{ratio(tot['found_shown'], tot['shown'])} {tot['mode_rows']:9d} "
                   f"{ratio(tot['true_rows'], tot['mode_rows']):>9s} {tot['line_rows']:9d} "
                   f"{harm}")
     print(f"{'sdypy-EMA lscf':24s} not scored: no automatic selection (select_poles is a "

@@ -129,22 +129,20 @@ def _layout(rng: np.random.Generator) -> tuple[list[list[int]], list[tuple[int, 
     return lines, pairs
 
 
-def _assembly(lines, pairs, inertia, stiffness, radius, k_ground, c=None) -> ot.Assembly:
+def _assembly(lines: list[list[int]], pairs: list[tuple[int, int]], inertia: list[float],
+              stiffness: np.ndarray, radius: np.ndarray, k_ground: float) -> ot.Assembly:
+    # shafts between neighbours of a line, a pinion (R = 1) and its wheel per gear pair,
+    # the motor disk (node 0) on its ground spring
     gear_nodes = {n for p in pairs for n in p}
-    shafts = [ot.Shaft(a, b, k=k, I=0.0) for (a, b), k in
-              zip(((a, b) for line in lines for a, b in zip(line[:-1], line[1:],
-                                                          strict=False)),
-                  stiffness, strict=True)]
+    links = [(a, b) for line in lines for a, b in zip(line[:-1], line[1:], strict=True)]
+    shafts = [ot.Shaft(a, b, k=k, I=0.0) for (a, b), k in zip(links, stiffness, strict=True)]
     disks = [ot.Disk(n, inertia[n], k=k_ground if n == 0 else 0.0)
              for n in range(len(inertia)) if n not in gear_nodes]
     gears = []
     for (p, w), r in zip(pairs, radius, strict=True):
         pinion = ot.Gear(p, inertia[p], 1.0)
         gears += [pinion, ot.Gear(w, inertia[w], r, parent=pinion)]
-    asm = ot.Assembly(shafts, disk_elements=disks, gear_elements=gears)
-    if c is not None:
-        asm.C = c
-    return asm
+    return ot.Assembly(shafts, disk_elements=disks, gear_elements=gears)
 
 
 def draw_chain(rng: np.random.Generator, min_gap_hz: float) -> tuple[ot.Assembly, list]:
@@ -179,12 +177,11 @@ def draw_chain(rng: np.random.Generator, min_gap_hz: float) -> tuple[ot.Assembly
         if np.min(np.diff(np.sort(s * f))) < min_gap_hz:
             continue
         asm = _assembly(lines, pairs, inertia, s**2 * stiffness, radius, s**2 * k_ground)
-        # one damping ratio per mode, in the order of C_modal's own eig(K, M)
-        n_modes = linalg.eigvals(asm.K, asm.M).size
-        zeta = 10 ** rng.uniform(np.log10(0.005), -1.0, n_modes)
-        c = asm.C_modal(asm.M, asm.K, xi=zeta)
-        return _assembly(lines, pairs, inertia, s**2 * stiffness, radius, s**2 * k_ground,
-                         c.real), lines
+        # a damping ratio per mode (independent draws: the order of C_modal's own
+        # eig(K, M) they are taken in does not matter)
+        zeta = 10 ** rng.uniform(np.log10(0.005), -1.0, asm.M.shape[0])
+        asm.C = asm.C_modal(asm.M, asm.K, xi=zeta).real
+        return asm, lines
 
 
 def true_modes(assembly: ot.Assembly) -> tuple[np.ndarray, np.ndarray]:
