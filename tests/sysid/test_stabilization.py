@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from gbpipe.errors import ConfigError
-from gbpipe.sysid import moesp, pbsid, stabilization_diagram
+from gbpipe.sysid import held_modes, lowest_order, moesp, pbsid, stabilization_diagram
 from tests.sysid.torsional_chain import assert_true_modes, chain, record
 
 ORDERS = range(2, 41, 2)
@@ -82,3 +82,18 @@ def test_bad_arguments_name_the_field(orders, kw, field):
     with pytest.raises(ConfigError) as err:
         stabilization_diagram(u, y, 1e-3, orders, past=20, **kw)
     assert err.value.field == field
+
+
+def test_a_mode_no_order_holds_does_not_push_the_order_to_the_highest():
+    """Another diagram's mode that no order of this one holds (LSCF's mode beside PBSID's
+    lines) is left out of this diagram's order, which holds the rest at the lowest order."""
+    orders = np.array([2, 4, 6, 8])
+    one = np.ones(1)
+    poles = [(np.array([30.0]), 0.02 * one, one), (np.array([10.02, 30.0]), 0.02 * one, one),
+             (np.array([10.0, 30.01]), 0.02 * one, one), (np.array([10.0, 30.0]), 0.02 * one,
+                                                          one)]
+    wanted = np.array([10.0, 30.0, 62.0])      # 62 Hz: no order holds it
+    held = held_modes(poles, wanted, 0.01)
+    assert held.tolist() == [True, True, False]
+    assert lowest_order(orders, poles, wanted, 0.01) == 8       # asked for all: the highest
+    assert lowest_order(orders, poles, wanted[held], 0.01) == 4

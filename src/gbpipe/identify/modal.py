@@ -44,6 +44,7 @@ from gbpipe.io import longest_segment
 from gbpipe.lti import pad
 from gbpipe.sysid import (
     Stabilization,
+    held_modes,
     lowest_order,
     lscf_stabilization,
     stabilization_diagram,
@@ -295,12 +296,19 @@ def _dataset(s: Mapping[str, Any], names: list[str], results: list[dict[str, Any
                 continue
             order_of[i, :len(r.orders)] = r.orders
             lines = cl["f"][i, j][kind[i, j] == "harmonic"]
-            model_order[i, j] = modes.size and lowest_order(
-                r.orders, r.poles, np.concatenate([modes, lines]),
-                s["stabilization"]["frequency_tolerance"])
+            tol = s["stabilization"]["frequency_tolerance"]
+            wanted = np.concatenate([modes, lines])
+            held = held_modes(r.poles, wanted, tol)
+            model_order[i, j] = modes.size and lowest_order(r.orders, r.poles,
+                                                            wanted[held], tol)
             if not modes.size:
                 status[i, j] = (f"no mode: no cluster of stable poles in {f_lo:g}-{f_hi:g} Hz "
                                 "that is a mode (table evidence)")
+            elif not held[:modes.size].all():
+                missing = ", ".join(f"{f:.1f}" for f in modes[~held[:modes.size]])
+                status[i, j] = (f"poor: no order up to {int(r.orders[-1])} holds the "
+                                f"mode(s) at {missing} Hz of the other method; the order "
+                                "holds the others")
     dims_c, dims_p = ("method", "pairing", "cluster"), ("method", "pairing", "order_index",
                                                         "pole")
     f = refs[0].frequency

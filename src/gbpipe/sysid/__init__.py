@@ -45,11 +45,17 @@ from gbpipe.sysid.nonparametric import (
     equivalent_averages,
     welch_frf,
 )
-from gbpipe.sysid.stabilization import Mode, Stabilization, lowest_order, stabilization_diagram
+from gbpipe.sysid.stabilization import (
+    Mode,
+    Stabilization,
+    held_modes,
+    lowest_order,
+    stabilization_diagram,
+)
 from gbpipe.sysid.subspace_model import SubspaceModel
 from gbpipe.sysid.uncertainty import FRFBounds, frf_bounds
 
 __all__ = ["pbsid", "moesp", "n4sid", "SubspaceModel", "InputRank", "input_hankel_rank",
            "welch_frf", "NonparametricFRF", "coherent_band", "CoherentBand",
            "equivalent_averages", "frf_bounds", "FRFBounds", "stabilization_diagram",
-           "Stabilization", "Mode", "lscf_stabilization", "lowest_order"]
+           "Stabilization", "Mode", "lscf_stabilization", "lowest_order", "held_modes"]

@@ -30,7 +30,7 @@ from gbpipe.sysid.method_pbsid import pbsid_orders
 from gbpipe.sysid.open_loop import open_loop_orders
 
 __all__ = ["Mode", "Stabilization", "stabilization_diagram", "stabilize", "continuous_poles",
-           "check_orders", "check_criteria", "mac", "lowest_order"]
+           "check_orders", "check_criteria", "mac", "lowest_order", "held_modes"]
 
 PoleSet = tuple[np.ndarray, np.ndarray, np.ndarray]
 
@@ -282,11 +282,27 @@ def lowest_order(orders: np.ndarray, poles: list[PoleSet], modes: list[Mode] | n
     fm = np.array([getattr(m, "frequency_hz", m) for m in modes], dtype=float)
     if not fm.size:
         return 0
-    for n, (f, _, _) in zip(orders, poles, strict=True):
-        near = np.abs(f[None, :] - fm[:, None]) <= freq_tol * fm[:, None]
-        if f.size and near.any(axis=1).all():
+    for n, held_here in zip(orders, _held(poles, fm, freq_tol), strict=True):
+        if held_here.all():
             return int(n)
     return int(orders[-1])
+
+
+def _held(poles: list[PoleSet], fm: np.ndarray, freq_tol: float) -> np.ndarray:
+    """(order, mode) whether the order has a pole within the tolerance of the mode."""
+    return np.array([(np.abs(f[None, :] - fm[:, None]) <= freq_tol * fm[:, None]).any(axis=1)
+                     if f.size else np.zeros(fm.size, bool) for f, _, _ in poles],
+                    dtype=bool).reshape(len(poles), fm.size)
+
+
+def held_modes(poles: list[PoleSet], modes: np.ndarray, freq_tol: float) -> np.ndarray:
+    """Which modes [Hz] (e.g. another diagram's) some order of this diagram holds.
+
+    A mode no order holds cannot set this diagram's order: asking for it would only
+    push the order to the highest tried (and a model of that order fits noise).
+    """
+    fm = np.asarray(modes, dtype=float)
+    return _held(poles, fm, freq_tol).any(axis=0) if len(poles) else np.zeros(fm.size, bool)
 
 
 def state_poles(amat: np.ndarray, cmat: np.ndarray, dt: float, max_damping: float) -> PoleSet:
