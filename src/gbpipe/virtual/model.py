@@ -12,11 +12,14 @@ and angles, held-out sensors):
 * one random-walk state per unknown-load node [N·m] (a torque on the disk the motors'
   measured torques do not account for);
 * constant offsets ``b`` (not states: regressors estimated by generalised least squares
-  over the whole record, :mod:`gbpipe.virtual.smoother`): the zero of each measured torque
-  sensor [N·m] and a torque offset of each motor [N·m] (friction, the torque estimate's
-  zero), kept only where the data can tell them from the dynamics (the PBH test at z = 1
-  of the model with the offsets as constant states): a speed or angle offset never is (a
-  rigid-body speed explains it), nor a motor offset on a load node.
+  over the whole record, :mod:`gbpipe.virtual.smoother`): a torque offset of each motor
+  [N·m] (friction and losses in a torque estimated from the current), then the zero of
+  each measured torque sensor [N·m], each kept only where the data can tell it from the
+  dynamics and the offsets kept before it (the PBH test at z = 1 of the model with the
+  offsets as constant states). A speed or angle offset never is (a rigid-body speed
+  explains it); a motor offset needs a measured torque between the motor and the unknown
+  loads (else the loads' mean takes it); a sensor's zero and a static torque through the
+  chain look alike, so with a motor offset kept the sensor is trusted.
 
 Discretised exactly with the zero-order hold (``scipy.signal.cont2discrete``, the matrix
 exponential), the load held over a sample like the inputs.
@@ -209,9 +212,12 @@ def estimation_model(chain: Chain, measured: Sequence[str], targets: Sequence[st
                         "fewer virtual.loads")
     # the offsets the data can tell apart: the PBH test with each as a constant state
     gx, gy, names = np.zeros((len(Ad), 0)), np.zeros((len(mo), 0)), []
-    candidates = ([(f"offset_{s}", np.zeros(len(Ad)), np.eye(len(mo))[i])
-                   for i, s in enumerate(measured) if s in m_torque]
-                  + [(f"offset_{u}", Bd[:, j], Dm[:, j]) for j, u in enumerate(motors)])
+    # the motors' torques first (an estimate from the current, carrying friction and
+    # losses), then the torque sensors' zeros (calibrated): a static torque through the
+    # chain and a sensor zero look alike, and the first kept is the one estimated
+    candidates = ([(f"offset_{u}", Bd[:, j], Dm[:, j]) for j, u in enumerate(motors)]
+                  + [(f"offset_{s}", np.zeros(len(Ad)), np.eye(len(mo))[i])
+                     for i, s in enumerate(measured) if s in m_torque])
     for name, cx, cy in (candidates if offsets else []):
         tx, ty = np.column_stack([gx, cx]), np.column_stack([gy, cy])
         k = tx.shape[1]

@@ -113,8 +113,10 @@ def fit_noise(model: EstimationModel, y: np.ndarray, u: np.ndarray) -> NoiseFit:
     if not np.isfinite(cost(v0[1:])) or cost(v0[1:]) >= 1e30:
         raise DataError("virtual", "the Kalman filter has no finite likelihood at the "
                         "start noise levels: check the sensors and motor torques")
+    # ftol: a change of 1e-7 in −2 log L per sample is far below what moves an estimate
     res = optimize.minimize(cost, v0[1:], method="L-BFGS-B",
-                            bounds=[(a - _LOG_RANGE, a + _LOG_RANGE) for a in v0[1:]])
+                            bounds=[(a - _LOG_RANGE, a + _LOG_RANGE) for a in v0[1:]],
+                            options={"ftol": 1e-7})
     v = np.concatenate([v0[:1], res.x])
     value, scale = neg2_loglik(model, _split(model, v), y, u)
     # the concentrated scale: every covariance times it, every sd times its root
