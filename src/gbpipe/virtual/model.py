@@ -117,6 +117,8 @@ def _observable_rows(A: np.ndarray, C: np.ndarray) -> bool:
     lam = np.linalg.eigvals(A)
     for z in np.unique(np.round(lam[np.abs(lam) >= 1 - 1e-9], 9)):
         m = np.vstack([A - z * np.eye(n), C])
+        # columns equilibrated (rank unchanged): states in rad, rad/s and N·m
+        m = m / np.maximum(np.linalg.norm(m, axis=0), 1e-300)
         s = np.linalg.svd(m, compute_uv=False)
         if s[-1] <= 1e-9 * s[0]:
             return False
