@@ -47,8 +47,10 @@ def perturbed(desc: dict, rng: np.random.Generator, share: float) -> dict:
     return out
 
 
-def run(rec, desc: dict, shaft: int, noise_samples: int) -> tuple[float, float, float, float]:
-    """Fit [%], band coverage [-], estimator CPU [s], noise-fit CPU [s] of one record."""
+def run(rec, desc: dict, shaft: int, noise_samples: int
+        ) -> tuple[float, float, float, float, float]:
+    """Fit [%], band coverage [-], estimator CPU [s], noise-fit CPU [s] of one record, and
+    the band's half width [N·m]."""
     chain = build_chain(desc)
     last = f"n{len(desc['disks']) - 1}"
     t0 = time.process_time()
@@ -62,12 +64,12 @@ def run(rec, desc: dict, shaft: int, noise_samples: int) -> tuple[float, float, 
     truth = rec.torque[keep, shaft]
     z, sd = est.z[keep, 0], est.sd[0]
     return (float(fit_percent(truth, z)[0]), float(np.mean(np.abs(z - truth) <= Z95 * sd)),
-            t2 - t1, t1 - t0)
+            t2 - t1, t1 - t0, float(Z95 * sd))
 
 
 def main(n_seeds: int = 20) -> None:
     rec = simulate_chain(100, n_disks=25, duration=60.0)
-    fit, cov, t_est, t_noise = run(rec, rec.description, 12, 10_000)
+    fit, cov, t_est, t_noise, _ = run(rec, rec.description, 12, 10_000)
     seconds = 60.0
     print(f"speed: 50-state chain, 60 s at 1 kHz: estimator {t_est:.3f} s CPU = "
           f"{t_est / seconds:.4f} s per s of data (target 0.01); noise fit on 10 s "
@@ -75,14 +77,20 @@ def main(n_seeds: int = 20) -> None:
     rows = {"true model": [], "model ±10 %": []}
     for seed in range(n_seeds):
         rec = simulate_chain(seed, n_disks=8, duration=20.0)
-        rows["true model"].append(run(rec, rec.description, 3, 10_000)[:2])
+        r = run(rec, rec.description, 3, 10_000)
+        rows["true model"].append((r[0], r[1], r[4]))
         wrong = perturbed(rec.description, np.random.default_rng(1000 + seed), 0.10)
-        rows["model ±10 %"].append(run(rec, wrong, 3, 10_000)[:2])
+        r = run(rec, wrong, 3, 10_000)
+        rows["model ±10 %"].append((r[0], r[1], r[4]))
     for name, r in rows.items():
         a = np.array(r)
         print(f"{name}: fit min {a[:, 0].min():.2f} median {np.median(a[:, 0]):.2f} % ; "
               f"coverage min {a[:, 1].min():.3f} median {np.median(a[:, 1]):.3f} "
-              f"max {a[:, 1].max():.3f} ({n_seeds} seeds)")
+              f"max {a[:, 1].max():.3f}; band half width median {np.median(a[:, 2]):.2f} "
+              f"N m ({n_seeds} seeds)")
+    widen = np.array(rows["model ±10 %"])[:, 2] / np.array(rows["true model"])[:, 2]
+    print(f"band width, model ±10 % over true model: median {np.median(widen):.2f}, "
+          f"min {widen.min():.2f}")
 
 
 if __name__ == "__main__":

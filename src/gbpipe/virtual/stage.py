@@ -156,8 +156,9 @@ def virtual_record(settings: Mapping[str, Any], model_cfg: Mapping[str, Any],
                                 "white-noise standard deviation (maximum likelihood)"),
         "input_noise_sd": _var(("input",), nf.noise.input_sd, "N m",
                                "motor-torque noise standard deviation (maximum likelihood)"),
-        "load_rate": _var(("load",), nf.noise.load_rate, "N m s-1/2",
-                          "random-walk intensity of the unknown load (maximum likelihood)"),
+        "load_step_sd": _var(("load",), nf.noise.load_rate * np.sqrt(dt), "N m",
+                             "random-walk step of the unknown load per sample (maximum "
+                             "likelihood)"),
         "model_noise_sd": _var((), nf.noise.model_sd, "N m", "white torque on every "
                                "coordinate: the model's error (maximum likelihood)"),
     }
