@@ -10,9 +10,9 @@ target 0.01 s/s; and of the noise fit (maximum likelihood on the innovations of 
 Part 2, accuracy: 20 seeds of random 8-disk chains (tests/virtual/chains.py: truth
 simulated with scipy from openTorsion's matrices), the torque of the middle shaft, which
 no sensor measures: fit [%] against the truth and the share of samples inside the 95 %
-band (both on the steady part: the filter's start and the smoother's
-end transients left out), with the true model and with every stiffness and inertia of the estimator's model
-off by a random ±10 %.
+band (both on the steady part: the filter's start and the smoother's end transients left
+out), with the true model and with every stiffness and inertia of the estimator's model off
+by a random ±10 %.
 
 Usage: ``OMP_NUM_THREADS=1 python benchmarks/virtual.py [n_seeds]``.
 """

@@ -72,9 +72,9 @@ def simulate_chain(seed: int, n_disks: int = 8, duration: float = 10.0, fs: floa
 
     The motor torque: a mean of 200 N·m plus band-limited (0–50 Hz) random torque of
     50 N·m rms; the load: −200 N·m plus a random walk of ``LOAD_RATE`` (an unknown,
-    slowly changing braking torque, held over each sample). Sensor and motor-torque noise: white, ``noise_share``
-    of each signal's dynamic rms. ``sensors``: ``speed_first``, ``speed_last``,
-    ``torque_first`` (the first shaft).
+    slowly changing braking torque, held over each sample). Sensor and motor-torque
+    noise: white, ``noise_share`` of each signal's dynamic rms. ``sensors``:
+    ``speed_first``, ``speed_last``, ``torque_first`` (the first shaft).
     """
     rng = np.random.default_rng(seed)
     asm = assembly if assembly is not None else random_assembly(rng, n_disks)

@@ -3,8 +3,9 @@ innovations of the steady-state Kalman filter.
 
 Parameters: the log standard deviation of each measured channel's noise, of each motor
 torque's noise (process noise through ``B``), the log intensity of each unknown load's
-random walk and the log level of a white torque on every coordinate (the model's error) (:class:`gbpipe.virtual.smoother.NoiseModel`). A common scale of all of them
-leaves the gains unchanged and is concentrated out of the Gaussian likelihood (its estimate
+random walk and the log level of a white torque on every coordinate (the model's error)
+(:class:`gbpipe.virtual.smoother.NoiseModel`). A common scale of all of them leaves the
+gains unchanged and is concentrated out of the Gaussian likelihood (its estimate
 ``Σ eᵀS⁻¹e / (N p)`` is applied at the end), so the first channel's level is held and the
 others are searched (``scipy.optimize.minimize``, L-BFGS-B, on a log scale ±12 around a
 start from the data: each signal's sample-to-sample difference, ``sd(Δx)/√2``, an upper

@@ -253,17 +253,22 @@ def smooth(model: EstimationModel, noise: NoiseModel, y: np.ndarray, u: np.ndarr
     n, nb, (N, p) = A.shape[0], model.Gx.shape[1], y.shape
     x0, b = theta[:n], theta[n:]
     Gamma = model.Gx - A @ K @ model.Gy
-    # forward: the filtered states with x0 and the offsets known
+    # forward: the filtered state x̂f = Cf x̂p + Df w (x0 and the offsets known), output
+    # straight as the smoother's drive d[k] = x̂f[k] − G x̂p[k+1], x̂p[k+1] = A x̂f[k] + B u[k]
+    # + Gx b: d = (I − G A) x̂f − G B u − G Gx b (one product per sample, not three)
     w = np.hstack([y, u, np.ones((N, 1))])
-    xf = dlsim(g.Phi, np.hstack([A @ K, model.B - A @ K @ model.D, (Gamma @ b)[:, None]]),
-               np.eye(n) - K @ C, np.hstack([K, -K @ model.D, -(K @ model.Gy @ b)[:, None]]),
-               w, x0)
-    xp_next = xf[:-1] @ A.T + u[:-1] @ model.B.T + model.Gx @ b
-    d = xf[:-1] - xp_next @ g.G.T
+    Bp = np.hstack([A @ K, model.B - A @ K @ model.D, (Gamma @ b)[:, None]])
+    Cf = np.eye(n) - K @ C
+    Df = np.hstack([K, -K @ model.D, -(K @ model.Gy @ b)[:, None]])
+    IGA = np.eye(n) - g.G @ A
+    Dd = IGA @ Df - np.hstack([np.zeros((n, p)), g.G @ model.B,
+                               (g.G @ model.Gx @ b)[:, None]])
+    d, xp_last = dlsim(g.Phi, Bp, IGA @ Cf, Dd, w[:-1], x0, return_state=True)
+    xf_last = Cf @ xp_last + Df @ w[-1]
     # backward: r[j] = x̂s[N−1−j], r[j+1] = G r[j] + d[N−2−j]
     out = np.vstack([model.Cz, np.eye(n)[model.load_states]])
     back = np.vstack([d[::-1], np.zeros((1, n))])
-    zs = dlsim(g.G, np.eye(n), out, np.zeros((len(out), n)), back, xf[-1])[::-1]
+    zs = dlsim(g.G, np.eye(n), out, np.zeros((len(out), n)), back, xf_last)[::-1]
     dz = np.vstack([model.Dz, np.zeros((len(model.load_states), model.Dz.shape[1]))])
     z = zs + u @ dz.T
     var = np.einsum("ij,jk,ik->i", out, g.Ps, out) + (dz * noise.input_sd) ** 2 @ np.ones(

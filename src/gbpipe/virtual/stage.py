@@ -19,8 +19,8 @@ import numpy as np
 import xarray as xr
 
 from gbpipe.errors import ConfigError, DataError
-from gbpipe.lti import fit_percent
 from gbpipe.loads import damage_equivalent_load, load_duration, rainflow_cycles, range_histogram
+from gbpipe.lti import fit_percent
 from gbpipe.model import bench_chain
 from gbpipe.virtual.model import estimation_model, target_names
 from gbpipe.virtual.noise import fit_noise
@@ -49,7 +49,6 @@ def _columns(record: xr.Dataset, names: list[str], field: str) -> np.ndarray:
 def _spectra(signals: Mapping[str, np.ndarray], dt: float, slopes: list[float],
              f_eq: float, bins: int) -> dict[str, tuple]:
     """Rainflow range histogram, load-duration distribution and DEL of each torque."""
-    names = list(signals)
     hist, centre, ldd, level, dels = [], [], [], [], []
     for x in signals.values():
         cyc = rainflow_cycles(x)
@@ -186,8 +185,8 @@ def virtual_record(settings: Mapping[str, Any], model_cfg: Mapping[str, Any],
         for key, unit, text in (("fit_percent", "percent", "fit, means removed (steady part)"),
                                 ("fit_percent_with_mean", "percent", "fit with the means"),
                                 ("rms_error", "mixed (see holdout_units)", "RMS error"),
-                                ("coverage_95", "1", "share of held-out samples in the band widened by "
-                                 "the sensor's noise")):
+                                ("coverage_95", "1", "share of held-out samples in the "
+                                 "band widened by the sensor's noise")):
             v[f"holdout_{key}"] = _var(hd, np.array([r[key] for r in rows]), unit, text)
         v["holdout_noise_sd"] = _var(hd, holdout_sd, "mixed (see holdout_units)",
                                      "the held-out sensor's white noise (maximum likelihood)")
