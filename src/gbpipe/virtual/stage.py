@@ -161,26 +161,22 @@ def virtual_record(settings: Mapping[str, Any], model_cfg: Mapping[str, Any],
         "model_noise_sd": _var((), nf.noise.model_sd, "N m", "white torque on every "
                                "coordinate: the model's error (maximum likelihood)"),
     }
-    rows, hv = [], {}
-    keep = est.steady
-    for h in holdout:
+    # the held-out sensors against their estimates, on the steady part (the record holds
+    # them: the noise fit above read them)
+    rows, keep = [], est.steady
+    measured_h = _columns(record, holdout, "virtual.holdout") if holdout else None
+    for i, h in enumerate(holdout):
         j = labels.index(h)
-        meas = record[h].values.astype(float) if h in record else None
-        if meas is None:
-            raise ConfigError("virtual.holdout", f"the record has no signal {h!r} to compare")
-        hv[h] = meas
-        m, z = meas[keep], est.z[keep, j]
+        m, z = measured_h[keep, i], est.z[keep, j]
         # the band of the measurement: the estimate's and the sensor's own noise
-        half = Z95 * np.hypot(est.sd[j], holdout_sd[len(rows)])
-        rows.append({"record": name, "signal": h, "unit": units[j],
-                     "fit_percent": float(fit_percent(m - m.mean(), z - z.mean())[0]),
+        half = Z95 * np.hypot(est.sd[j], holdout_sd[i])
+        rows.append({"fit_percent": float(fit_percent(m - m.mean(), z - z.mean())[0]),
                      "fit_percent_with_mean": float(fit_percent(m, z)[0]),
                      "rms_error": float(np.sqrt(np.mean((m - z) ** 2))),
-                     "coverage_95": float(np.mean(np.abs(m - z) <= half)),
-                     })
+                     "coverage_95": float(np.mean(np.abs(m - z) <= half))})
     if holdout:
         hd = ("holdout",)
-        v["holdout_measured"] = _var(("time", "holdout"), np.column_stack(list(hv.values())),
+        v["holdout_measured"] = _var(("time", "holdout"), measured_h,
                                      "mixed (see holdout_units)", "held-out measurement")
         for key, unit, text in (("fit_percent", "percent", "fit, means removed (steady part)"),
                                 ("fit_percent_with_mean", "percent", "fit with the means"),
