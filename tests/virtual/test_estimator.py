@@ -153,3 +153,12 @@ def test_unknown_load_node_named():
         estimation_model(build_chain(rec.description), SENSORS, ["torque_shaft1"],
                          ["n9"], rec.dt)
     assert exc.value.field == "virtual.loads"
+
+
+def test_unknown_target_named_with_the_choices():
+    rec = simulate_chain(1, n_disks=4, duration=0.5)
+    with pytest.raises(ConfigError) as exc:
+        estimation_model(build_chain(rec.description), SENSORS, ["torque_shaft9"], [],
+                         rec.dt)
+    assert exc.value.field == "virtual.torques"
+    assert "shaft0" in str(exc.value) and "n3" in str(exc.value)

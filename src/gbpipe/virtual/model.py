@@ -164,18 +164,23 @@ def estimation_model(chain: Chain, measured: Sequence[str], targets: Sequence[st
                               f"its disks: {', '.join(idx)}")
     m_speed, m_torque, m_angle = _sensor_outputs(chain, measured, f"{where}.sensors")
     t_speed, t_torque, t_angle = {}, {}, {}
+    sensors = {*chain.speed_sensors, *chain.torque_sensors, *chain.angle_sensors}
     for t in targets:
         kind, _, name = t.partition("_")
-        if t in [*measured]:
+        if t in measured:
             raise ConfigError(f"{where}.holdout", f"{t!r} is both measured and estimated: "
                               "hold it out of virtual.sensors")
-        if kind == "torque" and name in springs:
+        if t in sensors:   # a held-out sensor: its own node or spring and sign
+            s, tq, a = _sensor_outputs(chain, [t], f"{where}.holdout")
+            t_speed.update(s), t_torque.update(tq), t_angle.update(a)
+        elif kind == "torque" and name in springs:
             t_torque[t] = (name, 1.0)
         elif kind in ("speed", "angle") and name in idx:
             (t_speed if kind == "speed" else t_angle)[t] = name
         else:
-            s, tq, a = _sensor_outputs(chain, [t], f"{where}.estimate")
-            t_speed.update(s), t_torque.update(tq), t_angle.update(a)
+            raise ConfigError(f"{where}.torques", f"{t!r} is no target of the chain: give "
+                              f"torque_<shaft or mount> ({', '.join(sorted(springs))}), "
+                              f"speed_<disk> or angle_<disk> ({', '.join(idx)}), or a sensor")
     motors = {m.input: (m.node, m.sign) for m in chain.motors}
     load_in = {f"load_{n}": (n, 1.0) for n in loads}
     ss = mechanism_ss(mech, {**motors, **load_in}, {}, {**m_speed, **t_speed},
