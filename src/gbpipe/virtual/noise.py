@@ -111,7 +111,8 @@ def fit_noise(model: EstimationModel, y: np.ndarray, u: np.ndarray) -> NoiseFit:
         except (DataError, np.linalg.LinAlgError, ValueError):
             return 1e30
 
-    if not np.isfinite(cost(v0[1:])) or cost(v0[1:]) >= 1e30:
+    start = cost(v0[1:])
+    if not np.isfinite(start) or start >= 1e30:
         raise DataError("virtual", "the Kalman filter has no finite likelihood at the "
                         "start noise levels: check the sensors and motor torques")
     # ftol: a change of 1e-7 in −2 log L per sample is far below what moves an estimate
