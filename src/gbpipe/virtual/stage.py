@@ -6,8 +6,8 @@ What the workflow calls (:func:`virtual_record`): the chain built from the model
 (the configured chain, or the fitted overlay merged by the rule), the record's motor
 torques as known inputs, the chosen sensors as measurements; noise from the record's
 ``virtual.noise.window`` (maximum likelihood), then the steady-state smoother over the
-whole record. Fit and coverage are computed on the steady part (the filter's start and the
-smoother's end transients left out, ``steady`` in the output).
+whole record. Fit, coverage and the load spectra are computed on the steady part (the
+filter's start and the smoother's end transients left out, ``steady`` in the output).
 """
 
 from __future__ import annotations
@@ -71,7 +71,7 @@ def _spectra(signals: Mapping[str, np.ndarray], dt: float, slopes: list[float],
                               "distribution)"),
         "del": _var(sd + ("sn_slope",), np.array(dels), "N m",
                     f"damage-equivalent load range at {f_eq:g} Hz equivalent cycles "
-                    "(N_eq = f_eq T)"),
+                    "(N_eq = f_eq T, T the steady part's duration)"),
     }
 
 
@@ -164,6 +164,10 @@ def virtual_record(settings: Mapping[str, Any], model_cfg: Mapping[str, Any],
     # the held-out sensors against their estimates, on the steady part (the record holds
     # them: the noise fit above read them)
     rows, keep = [], est.steady
+    if keep.sum() < 2:
+        raise DataError(name, f"the record ({len(t)} samples) is shorter than the "
+                        "estimator's start and end transients: no steady part to compare or "
+                        "count; give a longer record")
     measured_h = _columns(record, holdout, "virtual.holdout") if holdout else None
     for i, h in enumerate(holdout):
         j = labels.index(h)
@@ -187,11 +191,13 @@ def virtual_record(settings: Mapping[str, Any], model_cfg: Mapping[str, Any],
         v["holdout_noise_sd"] = _var(hd, holdout_sd, "mixed (see holdout_units)",
                                      "the held-out sensor's white noise (maximum likelihood)")
     s = settings["spectra"]
-    torques = {n: record[n].values.astype(float) for n in
+    # every spectrum over the steady part (the estimates' start and end transients are no
+    # load the shaft saw; the measured torques over the same samples, to compare)
+    torques = {n: record[n].values[keep].astype(float) for n in
                [*model.inputs, *[x for x in sensors if x in chain.torque_sensors], *holdout]
                if n in record and (n.startswith("motor_torque_") or n in chain.torque_sensors)}
     measured_names = list(torques)
-    torques.update({lab: est.z[:, j] for j, lab in enumerate(labels)
+    torques.update({lab: est.z[keep, j] for j, lab in enumerate(labels)
                     if units[j] == "N m" and lab not in torques and lab.startswith("torque_")})
     spec = _spectra(torques, dt, list(s["sn_slopes"]), s["equivalent_frequency"],
                     s["bins"])
