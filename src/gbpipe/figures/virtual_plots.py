@@ -17,6 +17,7 @@ import xarray as xr
 
 from gbpipe.figures.captions import write_caption
 from gbpipe.figures.style import save
+from gbpipe.virtual import Z95
 
 __all__ = ["fig_virtual"]
 
@@ -49,7 +50,10 @@ def fig_virtual(ds: xr.Dataset, stem: str | os.PathLike, caption: str | os.PathL
     """
     holdout = [str(h) for h in ds.holdout.values] if "holdout" in ds.dims else []
     shown = holdout or [str(ds.target.values[0])]
-    mosaic = [[f"t{r}"] * 3 for r in range(len(shown))] + [["rainflow", "ldd", "del"]]
+    # per held-out sensor: the signals (two thirds) and their difference with the band
+    # (the band is too narrow to see against the signal's own swing)
+    mosaic = [[f"t{r}", f"t{r}", f"e{r}"] for r in range(len(shown))] + [
+        ["rainflow", "ldd", "del"]]
     fig = plt.figure(figsize=(10.0, 2.4 * (len(shown) + 1)), layout="constrained")
     ax_of = fig.subplot_mosaic(mosaic)
     w = _window(ds)
@@ -74,6 +78,17 @@ def fig_virtual(ds: xr.Dataset, stem: str | os.PathLike, caption: str | os.PathL
                          fontsize=8)
             numbers[f"{name} fit"] = f"{fit:.1f} %"
             numbers[f"{name} coverage"] = f"{100 * cov:.1f} %"
+            err = ax_of[f"e{r}"]
+            half = Z95 * np.hypot(float(ds.estimate_sd.values[j]),
+                                   float(ds.holdout_noise_sd.values[i]))
+            err.fill_between(t, -half, half, color="C0", alpha=0.3, lw=0,
+                             label="95 % band + sensor noise")
+            err.plot(t, ds.holdout_measured.values[w, i] - ds.estimate.values[w, j], "k",
+                     lw=0.6, label="measurement − estimate")
+            err.set(xlabel="time [s]", ylabel=f"[{unit}]")
+            err.legend(loc="upper right", fontsize=6)
+        else:
+            ax_of[f"e{r}"].set_axis_off()
         ax.set_xlabel("time [s]")
         ax.set_ylabel(f"{name} [{unit}]")
         ax.legend(loc="upper right", fontsize=6)
@@ -98,8 +113,9 @@ def fig_virtual(ds: xr.Dataset, stem: str | os.PathLike, caption: str | os.PathL
     write_caption(caption, f"Virtual torque sensors, {record}", "extension (issue 46)",
                   "Top: each held-out sensor's measurement (black) against its estimate "
                   "from the other signals (blue) and the 95 % band (shaded), a window of the "
-                  "steady part; the title's coverage counts the samples inside the band "
-                  "widened by the sensor's own noise. Bottom: load spectra of every "
+                  "steady part, and beside it their difference against the band widened by "
+                  "the sensor's own noise (the title's coverage counts the samples inside "
+                  "it). Bottom: load spectra of every "
                   "measured (solid) and estimated (dashed) torque: rainflow cycles exceeding "
                   "each range, time at level, and the damage-equivalent load range per S-N "
                   "slope (N_eq = f_eq T).", numbers)
