@@ -40,6 +40,9 @@ class ChainRecord(NamedTuple):
         True shaft torques [N·m] (``k·twist + c·twist rate``, twist ``θ_a − θ_b``).
     load : ndarray (N,)
         True load torque [N·m] on the last disk.
+    noise_sd : dict
+        Sensor name (and ``motor``) -> the standard deviation of its white noise as
+        simulated [its unit]: the true noise levels.
     """
 
     description: dict
@@ -48,6 +51,7 @@ class ChainRecord(NamedTuple):
     y: dict
     torque: np.ndarray
     load: np.ndarray
+    noise_sd: dict
 
 
 def random_assembly(rng: np.random.Generator, n_disks: int) -> ot.Assembly:
@@ -74,7 +78,8 @@ def simulate_chain(seed: int, n_disks: int = 8, duration: float = 10.0, fs: floa
     50 N·m rms; the load: −200 N·m plus a random walk of ``LOAD_RATE`` (an unknown,
     slowly changing braking torque, held over each sample). Sensor and motor-torque
     noise: white, ``noise_share`` of each signal's dynamic rms. ``sensors``:
-    ``speed_first``, ``speed_last``, ``torque_first`` (the first shaft).
+    ``speed_first``, ``speed_last``, ``speed_mid`` (disk ``n_disks // 2``), ``torque_first``
+    (the first shaft).
     """
     rng = np.random.default_rng(seed)
     asm = assembly if assembly is not None else random_assembly(rng, n_disks)
@@ -100,16 +105,17 @@ def simulate_chain(seed: int, n_disks: int = 8, duration: float = 10.0, fs: floa
         s.k * (theta[:, s.nl] - theta[:, s.nr]) + s.c * (omega[:, s.nl] - omega[:, s.nr])
         for s in asm.shaft_elements])
     clean = {"speed_first": omega[:, 0], "speed_last": omega[:, -1],
-             "torque_first": torque[:, 0]}
-
-    def noisy(v: np.ndarray) -> np.ndarray:
-        return v + noise_share * np.std(v - v.mean()) * rng.standard_normal(N)
-
-    y = {s: noisy(clean[s]) for s in sensors}
+             "speed_mid": omega[:, n // 2], "torque_first": torque[:, 0]}
+    sd = {s: noise_share * np.std(v) for s, v in clean.items()}
+    sd["motor"] = noise_share * np.std(drive)
+    y = {s: clean[s] + sd[s] * rng.standard_normal(N) for s in sensors}
     desc = from_assembly(asm)
     last = f"n{n - 1}"
     desc["motors"] = [{"name": "drive", "node": "n0", "sign": 1}]
     desc["sensors"] = [{"name": "speed_first", "speed": "n0"},
                        {"name": "speed_last", "speed": last},
+                       {"name": "speed_mid", "speed": f"n{n // 2}"},
                        {"name": "torque_first", "torque": "shaft0", "sign": 1}]
-    return ChainRecord(desc, 1.0 / fs, noisy(drive)[:, None], y, torque, load)
+    u = drive + sd["motor"] * rng.standard_normal(N)
+    return ChainRecord(desc, 1.0 / fs, u[:, None], y, torque, load,
+                       {s: sd[s] for s in (*sensors, "motor")})

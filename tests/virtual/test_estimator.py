@@ -39,7 +39,7 @@ def test_unmeasured_shaft_torque_fit_and_band_over_seeds():
     of the samples pooled over the seeds (steady part)."""
     inside, total = 0, 0
     for seed in (0, 1, 2):
-        rec = simulate_chain(seed, n_disks=8, duration=6.0)
+        rec = simulate_chain(seed, n_disks=8, duration=4.0)
         _, est = _estimate(rec, SENSORS, "torque_shaft3")
         k = est.steady
         truth, z = rec.torque[k, 3], est.z[k, 0]
@@ -54,7 +54,7 @@ def test_motor_friction_stays_out_of_the_dynamics():
     a torque sensor between motor and load the offset is estimated inside its 95 %
     interval and the unmeasured shaft's torque carries no bias beyond its band (a free
     load alone would take the 9 N·m into every shaft between)."""
-    rec = simulate_chain(5, n_disks=8, duration=6.0,
+    rec = simulate_chain(5, n_disks=8, duration=4.0,
                          sensors=("speed_first", "speed_last", "torque_first"))
     rec = rec._replace(u_measured=rec.u_measured + 9.0)
     sensors = ["speed_first", "speed_last", "torque_first"]
@@ -126,10 +126,24 @@ def test_smoother_equals_time_varying_rts_in_the_interior():
         Ps = Pf[k] + G @ (Ps - Pp[k + 1]) @ G.T
         out[k] = model.Cz[0] @ xs
         sd[k] = np.sqrt(model.Cz[0] @ Ps @ model.Cz[0])
+    sd[-1] = np.sqrt(model.Cz[0] @ Pf[-1] @ model.Cz[0])
     mid = slice(N // 3, 2 * N // 3)
     scale = np.std(rec.torque[:, 1])
     assert np.max(np.abs(est.z[mid, 0] - out[mid])) < 1e-5 * scale
     assert np.allclose(est.sd[0], sd[mid], rtol=1e-6)
+    # the samples flagged steady: the exact smoother's variance (diffuse start, as the
+    # GLS initial state) within 5 % of the steady band's; the flagged ends a few time
+    # constants of the predictor's slowest pole (python-control's gain, not gains())
+    k = est.steady
+    assert np.all(sd[k] ** 2 <= 1.05 * est.sd[0] ** 2)
+    assert np.all(sd[k] ** 2 >= (1 - 1e-6) * est.sd[0] ** 2)
+    _, P, _ = control.dlqe(A, np.eye(n), C, Q, R)
+    Kf = P @ C.T @ np.linalg.inv(C @ P @ C.T + R)
+    tau = -1 / np.log(np.max(np.abs(np.linalg.eigvals(A - A @ Kf @ C))))   # samples
+    start, end = np.argmax(k), N - 1 - np.flatnonzero(k)[-1]
+    assert start <= 5 * tau and end <= 5 * tau, (start, end, tau)
+    # and only the ends: one steady stretch
+    assert np.all(k[start:N - end])
 
 
 def test_torque_sensors_alone_cannot_see_the_rigid_speed():

@@ -26,8 +26,8 @@ EXAMPLE = ROOT / "config" / "examples" / "shaftline.yaml"
 @pytest.fixture(scope="module")
 def shaftline(tmp_path_factory):
     folder = tmp_path_factory.mktemp("shaftline")
-    truth = write_bench(folder / "shaftline", duration=10.0, seed=7)
-    cfg = load(CONFIG, EXAMPLE, {"virtual": {"noise": {"window": [0.0, 6.0]}}})
+    truth = write_bench(folder / "shaftline", duration=6.0, seed=7)
+    cfg = load(CONFIG, EXAMPLE, {"virtual": {"noise": {"window": [0.0, 3.0]}}})
     spec = cfg["measured"]["run1"]
     record = read(spec, folder, name="run1")
     ds = virtual_record(cfg["virtual"], {"drivetrain": cfg["drivetrain"]}, record, "run1")
