@@ -307,10 +307,6 @@ def _transient(out: np.ndarray, m: np.ndarray, excess: np.ndarray, tol: np.ndarr
     output) for good: the steps of the covariance recursion ``D ← m D mᵀ`` (module
     docstring of ``Estimate.steady``), evaluated every ``step`` samples."""
     step = max(1, int(np.ceil(n_samples / _GRID)))
-    power = np.linalg.matrix_power(m, step)
-    o, above = out, []
-    for _ in range(int(np.ceil(n_samples / step))):
-        above.append(np.any(np.einsum("ij,jk,ik->i", o, excess, o) > tol))
-        o = o @ power
-    hits = np.flatnonzero(above)
+    o = _free_response(out, np.linalg.matrix_power(m, step), int(np.ceil(n_samples / step)))
+    hits = np.flatnonzero(np.any(np.sum((o @ excess) * o, axis=2) > tol, axis=1))
     return 0 if hits.size == 0 else min(n_samples, int(hits[-1] + 1) * step)
