@@ -16,7 +16,11 @@ the whole record (the diffuse prior of a constant; no tuning), the powers ``C Φ
 until they have decayed to 1e-10. The band of an estimate adds the offsets' uncertainty
 (their covariance through the smoother's static gain) to ``C_z Ps C_zᵀ`` and, where an
 estimate reads a motor torque directly, that torque's noise. Near the record's ends the
-band is the steady one (the transient of the initial state is not in it).
+band is the steady one (the transient of the initial state is not in it): the samples where
+it holds, every estimate's variance within 5 % of its steady one, are flagged
+(``Estimate.steady``), the ends' excess variance from the covariance recursions with the
+steady gains (``D ← Φ D Φᵀ`` from the initial state's GLS covariance, ``D ← G D Gᵀ`` from
+``P_f − P_s``), evaluated by the stacked free response.
 """
 
 from __future__ import annotations

@@ -148,7 +148,8 @@ def virtual_record(settings: Mapping[str, Any], model_cfg: Mapping[str, Any],
         "estimate_sd": _var(("target",), est.sd, mixed, "standard deviation of the estimate "
                             "(steady state, offsets' uncertainty included)"),
         "steady": _var(("time",), est.steady.astype(np.int8), "1",
-                       "1 outside the filter's start and the smoother's end transients"),
+                       "1 where every estimate's variance is within 5 % of its steady one "
+                       "(outside the start and end transients)"),
         "offset_value": _var(("offset",), est.offsets, "N m", "estimated constant offset"),
         "offset_sd": _var(("offset",), est.offsets_sd, "N m", "its standard deviation"),
         "sensor_noise_sd": _var(("sensor",), noise.sensor_sd, "mixed (see sensor_units)",
