@@ -289,26 +289,23 @@ def _dataset(s: Mapping[str, Any], names: list[str], results: list[dict[str, Any
         # explain the lines it is fitted on); noise poles never count, and lines alone
         # (no mode) set no order
         modes = cl["f"][:, j][kind[:, j] == "mode"]
+        tol = s["stabilization"]["frequency_tolerance"]
         for i, method in enumerate(methods):
             r = res[method]
             if isinstance(r, str):
                 status[i, j] = r
                 continue
             order_of[i, :len(r.orders)] = r.orders
-            lines = cl["f"][i, j][kind[i, j] == "harmonic"]
-            tol = s["stabilization"]["frequency_tolerance"]
-            wanted = np.concatenate([modes, lines])
+            wanted = np.concatenate([modes, cl["f"][i, j][kind[i, j] == "harmonic"]])
             held = held_modes(r.poles, wanted, tol)
-            model_order[i, j] = modes.size and lowest_order(r.orders, r.poles,
-                                                            wanted[held], tol)
+            model_order[i, j] = modes.size and lowest_order(r.orders, r.poles, wanted[held], tol)
+            missing = modes[~held[:modes.size]]
             if not modes.size:
                 status[i, j] = (f"no mode: no cluster of stable poles in {f_lo:g}-{f_hi:g} Hz "
                                 "that is a mode (table evidence)")
-            elif not held[:modes.size].all():
-                missing = ", ".join(f"{f:.1f}" for f in modes[~held[:modes.size]])
-                status[i, j] = (f"poor: no order up to {int(r.orders[-1])} holds the "
-                                f"mode(s) at {missing} Hz of the other method; the order "
-                                "holds the others")
+            elif missing.size:
+                status[i, j] = (f"poor: no order up to {int(r.orders[-1])} holds the mode(s) "
+                                f"at {np.round(missing, 1).tolist()} Hz of the other method")
     dims_c, dims_p = ("method", "pairing", "cluster"), ("method", "pairing", "order_index",
                                                         "pole")
     f = refs[0].frequency
