@@ -20,11 +20,16 @@ A stable cluster of a stabilization diagram is one of three things:
       frequency and damping, driven by white noise, seen through the same band filter
       over the same duration": the sampling spread for the band's number of independent
       samples, drawn by Monte Carlo on the band's own correlation, not a tuned number;
-    * the **drift**: a line follows its shaft's speed, so the peak in the cluster's band
-      moves with time along a monotonic track (a run-up, a slow drift: the line sweeps
+    * the **drift**: a line follows its shaft's speed, so the peak near the cluster moves
+      with time along a monotonic track (a run-up, a slow drift: the line sweeps
       through the band and its PDF there is bursty, not a sinusoid's); a mode's peak
       jitters at random. Spearman's rank correlation of the peak frequency of each
-      Welch segment with time (:func:`peak_drift`), p below ``ALPHA``;
+      Welch segment with time (:func:`peak_drift`), p below ``ALPHA``, on a track that
+      passes the cluster's frequency. The track is searched in the cluster's band widened
+      by the Hann window's main-lobe half-width ``2 / segment``: the fit puts a swept
+      line's pole anywhere on its sweep, so within the pole's own band the line is seen
+      only part of the record (the peak then sits at the band's edge, a flat track);
+      any stationary response (modes, noise) still has no trend there;
     * the **damping**: a half-power bandwidth ``2 ζ f`` narrower than the record's
       frequency resolution ``1 / T`` (a decay longer than the record) cannot be told from
       a line: ``ζ < 1 / (2 f T)``.
@@ -173,7 +178,9 @@ def peak_drift(x: np.ndarray, fs: float, f0: float, half_width: float, segment: 
     zero-padded) within the band, against time: Spearman's rank correlation and its
     two-sided p-value (:func:`scipy.stats.spearmanr`). A line follows its shaft's speed,
     which drifts smoothly: a monotonic track; a mode's peak jitters at random about its
-    frequency (no trend under the hypothesis of a mode: p uniform).
+    frequency (no trend under the hypothesis of a mode: p uniform). A track that does not
+    pass ``f0`` (its range, min to max, leaves ``f0`` out) is a line beside the pole, not
+    the pole's: p 1.
 
     Returns
     -------
@@ -190,7 +197,7 @@ def peak_drift(x: np.ndarray, fs: float, f0: float, half_width: float, segment: 
     if pxx.shape[1] < 4 or band.sum() < 2:
         return np.nan, 1.0, pxx.shape[1]
     track = f[band][np.argmax(pxx[band], axis=0)]
-    if np.ptp(track) == 0:
+    if np.ptp(track) == 0 or not track.min() <= f0 <= track.max():
         return np.nan, 1.0, track.size
     res = stats.spearmanr(np.arange(track.size), track)
     return float(res.statistic), float(res.pvalue), track.size
@@ -241,13 +248,15 @@ def cluster_evidence(frequency_hz: float, damping: float, outputs: Sequence[np.n
     alpha = ALPHA / len(outputs)
     kurt, limit, worst = np.inf, np.nan, ""
     drift = (np.nan, 1.0, 0, "")
+    # the drift test's band: the cluster's widened by the Hann main lobe (module docstring)
+    wt = w + 2.0 * resolution_hz
     for x, name in zip(outputs, names, strict=True):
         z, fs_z = band_envelope(np.asarray(x, float), fs, f, w)
         k = float(kurtosis_statistic(z))
         lim = kurtosis_limit(f, max(zeta, zeta_res), w, fs_z, z.size, alpha, rng)
         if k - lim < kurt - (limit if np.isfinite(limit) else 0.0):
             kurt, limit, worst = k, lim, name
-        d = peak_drift(np.asarray(x, float), fs, f, w, 1.0 / resolution_hz)
+        d = peak_drift(np.asarray(x, float), fs, f, wt, 1.0 / resolution_hz)
         if d[1] < drift[1]:
             drift = (*d, name)
     near = np.abs(coherence_f - f) <= w
@@ -255,13 +264,17 @@ def cluster_evidence(frequency_hz: float, damping: float, outputs: Sequence[np.n
         coherence[np.argmin(np.abs(coherence_f - f))])
     order = on_line(f, bands)
     band = f"{f - w:.1f}-{f + w:.1f} Hz"
-    # a known order line inside the band makes its PDF a line's whatever the cluster:
-    # there the speed decides, not the PDF (a mode beside a line stays a mode)
+    track_band = f"{f - wt:.1f}-{f + wt:.1f} Hz"
+    # a known order line inside the band makes its PDF (and its peak track, in the wider
+    # band) a line's whatever the cluster: there the speed decides, not the PDF (a mode
+    # beside a line stays a mode)
     crossed = bands.order[(bands.low_hz <= f + w) & (bands.high_hz >= f - w)]
     pdf_test = np.isfinite(order) or not crossed.size
+    drift_test = np.isfinite(order) or not np.any((bands.low_hz <= f + wt)
+                                                  & (bands.high_hz >= f - wt))
     facts = [f"kurtosis {kurt:.2f} in {band} of {worst} (sinusoid 1.5, Gaussian 3; a mode "
              f"of this damping gives >= {limit:.2f} with {100 * (1 - alpha):.2f} %)",
-             f"peak frequency vs time in {band} of {drift[3] or worst}: Spearman "
+             f"peak frequency vs time in {track_band} of {drift[3] or worst}: Spearman "
              f"{drift[0]:.2f}, p {drift[1]:.1e} over {drift[2]} segments",
              f"damping {zeta:.4f} (the record resolves >= {zeta_res:.5f})",
              *([] if pdf_test else [f"the band holds order line(s) "
@@ -276,7 +289,7 @@ def cluster_evidence(frequency_hz: float, damping: float, outputs: Sequence[np.n
                                  "record)")
     elif kurt < limit and pdf_test:
         kind, why = "harmonic", f"kurtosis {kurt:.2f} below {limit:.2f} (sinusoid)"
-    elif drift[1] < alpha and pdf_test:
+    elif drift[1] < alpha and drift_test:
         kind, why = "harmonic", (f"its peak drifts with time (Spearman {drift[0]:.2f}, p "
                                  f"{drift[1]:.1e} < {alpha:.1e}): a line following a shaft's "
                                  "speed")
