@@ -63,7 +63,8 @@ comparable); peak traced memory [MiB] (``tracemalloc``, a second untimed run) on
 
 Usage: ``OMP_NUM_THREADS=1 PYTHONPATH=src python benchmarks/modal_selection.py --random 30
 --seed 1`` (peers: ``requirements-bench.txt``); ``--speed none`` (repeatable) runs only the
-cases of that speed class (the draws of the others are made and dropped: the same cases).
+cases of that speed class (the draws of the others are made and dropped: the same cases);
+``--no-peers`` scores gbpipe alone.
 """
 
 from __future__ import annotations
@@ -198,8 +199,10 @@ def peer_outputs(record: Any, q: int) -> np.ndarray:
     return y / y.std(axis=0)
 
 
-def run_case(case: modal_cases.Case, folder: Path, memory: bool) -> dict[str, Any]:
-    """Every tool on one case: the counts per tool, the time and memory per tool."""
+def run_case(case: modal_cases.Case, folder: Path, memory: bool, peers: bool = True
+             ) -> dict[str, Any]:
+    """Every tool (gbpipe alone without ``peers``) on one case: the counts per tool, the
+    time and memory per tool."""
     rec = read(case.spec, base_dir=modal_cases.write_case(folder, case), name=case.name)
     cfg = case_config(case)
     s = cfg["identify"]
@@ -216,6 +219,10 @@ def run_case(case: modal_cases.Case, folder: Path, memory: bool) -> dict[str, An
         out["counts"][f"gbpipe {method}"] = score(
             d.mode_frequency.values[ok], np.asarray(d.mode_kind.values[ok], dtype=str),
             case, asked, shown, df, band)
+    fu = build_chain(from_assembly(case.assembly)).mechanism.undamped_frequencies()
+    out["import_error"] = float(np.max(np.abs(np.sort(fu) / case.frequency_hz - 1)))
+    if not peers:
+        return out
     q = int(round(float(rec.attrs["sample_rate"]) / float(s["sample_rate"])))
     y = peer_outputs(rec, q)
     try:
@@ -229,8 +236,6 @@ def run_case(case: modal_cases.Case, folder: Path, memory: bool) -> dict[str, An
     f_peer = np.array([f for f, _ in found])
     out["counts"]["pyOMA2 ssi-cov + hier"] = score(f_peer, np.full(f_peer.size, "mode"),
                                                    case, asked, shown, df, band)
-    fu = build_chain(from_assembly(case.assembly)).mechanism.undamped_frequencies()
-    out["import_error"] = float(np.max(np.abs(np.sort(fu) / case.frequency_hz - 1)))
     return out
 
 
@@ -276,6 +281,8 @@ def main(argv: list[str] | None = None) -> None:
     p.add_argument("--duration", type=float, default=40.0, help="record length [s]")
     p.add_argument("--speed", choices=SPEEDS, action="append",
                    help="run only the cases of this speed class (repeatable; default all)")
+    p.add_argument("--no-peers", action="store_true",
+                   help="score gbpipe alone (no pyOMA2 run)")
     p.add_argument("--memory-cases", type=int, default=2,
                    help="cases whose peak memory is traced (a second run each)")
     a = p.parse_args(argv)
@@ -285,7 +292,7 @@ def main(argv: list[str] | None = None) -> None:
     with tempfile.TemporaryDirectory() as tmp:
         drawn = modal_cases.cases(a.random, a.seed, duration=a.duration)
         for i, case in enumerate(c for c in drawn if c.speed in (a.speed or SPEEDS)):
-            r = run_case(case, Path(tmp), i < a.memory_cases)
+            r = run_case(case, Path(tmp), i < a.memory_cases, not a.no_peers)
             cases.append(case)
             results.append(r)
             n = {t: f"{c['found']}/{c['asked']} found, {c['true_rows']}/{c['mode_rows']} "

@@ -25,11 +25,14 @@ A stable cluster of a stabilization diagram is one of three things:
       through the band and its PDF there is bursty, not a sinusoid's); a mode's peak
       jitters at random. Spearman's rank correlation of the peak frequency of each
       Welch segment with time (:func:`peak_drift`), p below ``ALPHA``, on a track that
-      passes the cluster's frequency. The track is searched in the cluster's band widened
-      by the Hann window's main-lobe half-width ``2 / segment``: the fit puts a swept
-      line's pole anywhere on its sweep, so within the pole's own band the line is seen
-      only part of the record (the peak then sits at the band's edge, a flat track);
-      any stationary response (modes, noise) still has no trend there;
+      passes the cluster's frequency. The track is searched in the cluster's band, at
+      least ``3 / segment`` wide on each side: a pole the segment's spectrum does not
+      resolve (``2 zeta f`` below ``1 / segment``, as a line's) is located within one
+      frequency line, and the Hann window spreads a line over its main lobe, ``2 /
+      segment`` on each side. The fit puts a swept line's pole anywhere on its sweep:
+      within the pole's own band the line is seen only part of the record (its peak then
+      sits at the band's edge, a flat track). Any stationary response (modes, noise)
+      still has no trend in the wider band;
     * the **damping**: a half-power bandwidth ``2 ζ f`` narrower than the record's
       frequency resolution ``1 / T`` (a decay longer than the record) cannot be told from
       a line: ``ζ < 1 / (2 f T)``.
@@ -248,8 +251,9 @@ def cluster_evidence(frequency_hz: float, damping: float, outputs: Sequence[np.n
     alpha = ALPHA / len(outputs)
     kurt, limit, worst = np.inf, np.nan, ""
     drift = (np.nan, 1.0, 0, "")
-    # the drift test's band: the cluster's widened by the Hann main lobe (module docstring)
-    wt = w + 2.0 * resolution_hz
+    # the drift test's band: the cluster's, at least the Hann main lobe about the pole's
+    # located frequency (module docstring)
+    wt = max(w, 3.0 * resolution_hz)
     for x, name in zip(outputs, names, strict=True):
         z, fs_z = band_envelope(np.asarray(x, float), fs, f, w)
         k = float(kurtosis_statistic(z))
