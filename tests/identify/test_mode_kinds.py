@@ -91,13 +91,14 @@ def test_a_line_sweeping_through_the_band_drifts_a_mode_does_not():
     t = np.arange(n) / FS
     f_line = 254.0 * (1 + 0.01 * t / t[-1])
     x = np.sin(2 * np.pi * np.cumsum(f_line) / FS) + 0.3 * rng.standard_normal(n)
-    rho, p, segs = peak_drift(x, FS, 255.2, 1.0, 2.0)
-    assert segs == 20 and rho > 0.9 and p < ALPHA
+    d = peak_drift(x, FS, 255.2, 1.0, 2.0)
+    assert d.n == 20 and d.rho > 0.9 and d.p < ALPHA
+    assert d.low_hz <= 255.2 <= d.high_hz  # the track passes the pole
     z, _ = band_envelope(x, FS, 255.2, 0.5)
     assert float(kurtosis_statistic(z)) > 2.5  # the PDF test alone would not see it
     for _ in range(20):
         y = _sdof(111.0, 0.005, n, rng)
-        assert peak_drift(y, FS, 111.0, 1.11, 2.0)[1] > ALPHA
+        assert peak_drift(y, FS, 111.0, 1.11, 2.0).p > ALPHA
 
 
 def _swept(t: np.ndarray, f_start: float, rise: float, amp: float) -> np.ndarray:
@@ -125,7 +126,7 @@ def test_a_swept_line_in_an_incoherent_band_of_a_two_mode_response_is_harmonic()
     assert ev.kind == "harmonic" and "drifts" in ev.text, ev.text
     # in the pole's own band (one frequency line each side) the track is flat at the
     # band's edge while the line is out of it: the drift is not significant there
-    assert peak_drift(x, FS, 301.0, 0.5, 2.0)[1] > ALPHA
+    assert peak_drift(x, FS, 301.0, 0.5, 2.0).p > ALPHA
     for f0, zeta in ((250.0, 0.004), (180.0, 0.02)):
         ev = cluster_evidence(f0, zeta, [x], ["y"], FS, f, coh, 0.5, 0.6, NO_LINES, rng)
         assert ev.kind == "mode", ev.text
@@ -141,7 +142,7 @@ def test_the_widened_drift_band_calls_no_unresolved_mode_a_line():
     for _ in range(20):
         y = _sdof(40.0, 0.005, n, rng)
         y = y + 0.05 * y.std() * rng.standard_normal(n)
-        assert peak_drift(y, FS, 40.0, 1.5, 2.0)[1] > ALPHA
+        assert peak_drift(y, FS, 40.0, 1.5, 2.0).p > ALPHA
         ev = cluster_evidence(40.0, 0.005, [y], ["y"], FS, f, np.ones_like(f), 0.5, 0.6,
                               NO_LINES, rng)
         assert ev.kind == "mode", ev.text

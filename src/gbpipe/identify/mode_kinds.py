@@ -58,7 +58,7 @@ from scipy import signal, stats
 from gbpipe.identify.harmonic_lines import HarmonicBands, order_one
 
 __all__ = ["KINDS", "ALPHA", "Evidence", "band_envelope", "kurtosis_statistic",
-           "kurtosis_limit", "peak_drift", "resolvable_damping", "cluster_evidence",
+           "kurtosis_limit", "Drift", "peak_drift", "resolvable_damping", "cluster_evidence",
            "on_line", "Cluster", "PairingData", "record_evidence"]
 
 #: The kinds of a cluster.
@@ -173,37 +173,51 @@ def kurtosis_limit(f0: float, damping: float, half_width: float, fs_z: float, n:
     return float(np.exp(lg.mean() - stats.norm.isf(alpha) * lg.std(ddof=1)))
 
 
+class Drift(NamedTuple):
+    """The peak track of one output near a cluster (:func:`peak_drift`).
+
+    Attributes
+    ----------
+    rho : float
+        Rank correlation of peak frequency and time [1] (NaN: a constant track).
+    p : float
+        Its two-sided p-value [1] (1 for a constant track).
+    n : int
+        Segments [1].
+    low_hz, high_hz : float
+        Lowest and highest peak of the track [Hz] (NaN: no track).
+    """
+
+    rho: float
+    p: float
+    n: int
+    low_hz: float
+    high_hz: float
+
+
 def peak_drift(x: np.ndarray, fs: float, f0: float, half_width: float, segment: float
-               ) -> tuple[float, float, int]:
+               ) -> Drift:
     """Does the spectral peak in ``f0 ± half_width`` drift with time, as a shaft's line does?
 
     The peak frequency of each non-overlapping Hann segment of ``segment`` [s] (4x
     zero-padded) within the band, against time: Spearman's rank correlation and its
     two-sided p-value (:func:`scipy.stats.spearmanr`). A line follows its shaft's speed,
     which drifts smoothly: a monotonic track; a mode's peak jitters at random about its
-    frequency (no trend under the hypothesis of a mode: p uniform). A track that does not
-    pass ``f0`` (its range, min to max, leaves ``f0`` out) is a line beside the pole, not
-    the pole's: p 1.
-
-    Returns
-    -------
-    rho : float
-        Rank correlation of peak frequency and time [1] (NaN: a constant track).
-    p : float
-        Its p-value [1] (1 for a constant track).
-    n : int
-        Segments [1].
+    frequency (no trend under the hypothesis of a mode: p uniform). The track's range
+    tells whether it passes ``f0`` [Hz] (a track that leaves ``f0`` out is a line beside
+    the pole, not the pole's: :func:`cluster_evidence`).
     """
     n = int(round(segment * fs))
     f, _, pxx = signal.spectrogram(x - x.mean(), fs, nperseg=n, noverlap=0, nfft=4 * n)
     band = np.abs(f - f0) <= half_width
     if pxx.shape[1] < 4 or band.sum() < 2:
-        return np.nan, 1.0, pxx.shape[1]
+        return Drift(np.nan, 1.0, pxx.shape[1], np.nan, np.nan)
     track = f[band][np.argmax(pxx[band], axis=0)]
-    if np.ptp(track) == 0 or not track.min() <= f0 <= track.max():
-        return np.nan, 1.0, track.size
+    low, high = float(track.min()), float(track.max())
+    if np.ptp(track) == 0:
+        return Drift(np.nan, 1.0, track.size, low, high)
     res = stats.spearmanr(np.arange(track.size), track)
-    return float(res.statistic), float(res.pvalue), track.size
+    return Drift(float(res.statistic), float(res.pvalue), track.size, low, high)
 
 
 def resolvable_damping(frequency_hz: float, duration_s: float) -> float:
@@ -250,7 +264,7 @@ def cluster_evidence(frequency_hz: float, damping: float, outputs: Sequence[np.n
     zeta_res = resolvable_damping(f, duration)
     alpha = ALPHA / len(outputs)
     kurt, limit, worst = np.inf, np.nan, ""
-    drift = (np.nan, 1.0, 0, "")
+    drift, drift_at, passes = None, "", False
     # the drift test's band: the cluster's, at least the Hann main lobe about the pole's
     # located frequency (module docstring)
     wt = max(w, 3.0 * resolution_hz)
@@ -261,8 +275,10 @@ def cluster_evidence(frequency_hz: float, damping: float, outputs: Sequence[np.n
         if k - lim < kurt - (limit if np.isfinite(limit) else 0.0):
             kurt, limit, worst = k, lim, name
         d = peak_drift(np.asarray(x, float), fs, f, wt, 1.0 / resolution_hz)
-        if d[1] < drift[1]:
-            drift = (*d, name)
+        # the track must pass the cluster: one beside it is a line beside the cluster
+        on = bool(d.low_hz <= f <= d.high_hz)
+        if drift is None or (on and (not passes or d.p < drift.p)):
+            drift, drift_at, passes = d, name, on
     near = np.abs(coherence_f - f) <= w
     coh = float(np.max(coherence[near])) if near.any() else float(
         coherence[np.argmin(np.abs(coherence_f - f))])
@@ -278,8 +294,10 @@ def cluster_evidence(frequency_hz: float, damping: float, outputs: Sequence[np.n
                                                   & (bands.high_hz >= f - wt))
     facts = [f"kurtosis {kurt:.2f} in {band} of {worst} (sinusoid 1.5, Gaussian 3; a mode "
              f"of this damping gives >= {limit:.2f} with {100 * (1 - alpha):.2f} %)",
-             f"peak frequency vs time in {track_band} of {drift[3] or worst}: Spearman "
-             f"{drift[0]:.2f}, p {drift[1]:.1e} over {drift[2]} segments",
+             f"peak frequency vs time in {track_band} of {drift_at}: Spearman "
+             f"{drift.rho:.2f}, p {drift.p:.1e} over {drift.n} segments, track "
+             f"{drift.low_hz:.1f}-{drift.high_hz:.1f} Hz"
+             + ("" if passes else " (does not pass the cluster: a line beside it)"),
              f"damping {zeta:.4f} (the record resolves >= {zeta_res:.5f})",
              *([] if pdf_test else [f"the band holds order line(s) "
                                     f"{', '.join(f'{k:.4g}' for k in crossed)}: the PDF "
@@ -293,9 +311,9 @@ def cluster_evidence(frequency_hz: float, damping: float, outputs: Sequence[np.n
                                  "record)")
     elif kurt < limit and pdf_test:
         kind, why = "harmonic", f"kurtosis {kurt:.2f} below {limit:.2f} (sinusoid)"
-    elif drift[1] < alpha and drift_test:
-        kind, why = "harmonic", (f"its peak drifts with time (Spearman {drift[0]:.2f}, p "
-                                 f"{drift[1]:.1e} < {alpha:.1e}): a line following a shaft's "
+    elif passes and drift.p < alpha and drift_test:
+        kind, why = "harmonic", (f"its peak drifts with time (Spearman {drift.rho:.2f}, p "
+                                 f"{drift.p:.1e} < {alpha:.1e}): a line following a shaft's "
                                  "speed")
     elif coh < coherence_min:
         kind, why = "spurious", (f"coherence {coh:.2f} below coherence_min "
