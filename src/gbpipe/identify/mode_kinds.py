@@ -204,8 +204,8 @@ def peak_drift(x: np.ndarray, fs: float, f0: float, half_width: float, segment: 
     two-sided p-value (:func:`scipy.stats.spearmanr`). A line follows its shaft's speed,
     which drifts smoothly: a monotonic track; a mode's peak jitters at random about its
     frequency (no trend under the hypothesis of a mode: p uniform). The track's range
-    tells whether it passes ``f0`` [Hz] (a track that leaves ``f0`` out is a line beside
-    the pole, not the pole's: :func:`cluster_evidence`).
+    tells whether it passes ``f0`` [Hz] (a track that leaves ``f0`` out follows a peak
+    beside the pole, a line or another mode, not the pole's: :func:`cluster_evidence`).
     """
     n = int(round(segment * fs))
     f, _, pxx = signal.spectrogram(x - x.mean(), fs, nperseg=n, noverlap=0, nfft=4 * n)
@@ -297,7 +297,7 @@ def cluster_evidence(frequency_hz: float, damping: float, outputs: Sequence[np.n
              f"peak frequency vs time in {track_band} of {drift_at}: Spearman "
              f"{drift.rho:.2f}, p {drift.p:.1e} over {drift.n} segments, track "
              f"{drift.low_hz:.1f}-{drift.high_hz:.1f} Hz"
-             + ("" if passes else " (does not pass the cluster: a line beside it)"),
+             + ("" if passes else " (does not pass the cluster: a peak beside it)"),
              f"damping {zeta:.4f} (the record resolves >= {zeta_res:.5f})",
              *([] if pdf_test else [f"the band holds order line(s) "
                                     f"{', '.join(f'{k:.4g}' for k in crossed)}: the PDF "
