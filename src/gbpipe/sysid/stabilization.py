@@ -6,12 +6,10 @@ The field's practice (SSI with stabilization charts: Peeters & De Roeck, MSSP 13
 PolyMAX: Peeters, Van der Auweraer, Guillaume & Leuridan, Shock Vib. 11, 2004) is to fit a
 range of orders, flag the poles that stay put between consecutive orders, group the flagged
 poles into clusters (as pyOMA2 and sdypy-EMA do: hierarchical clustering of the frequency
-distances, one pole per order and cluster, a minimum cluster size relative to the largest)
-and report each cluster as a mode. Here the model order is the lowest order whose poles
-hold every cluster.
-
-:func:`stabilization_diagram` reads every order off one projection and SVD of a subspace
-method (:func:`gbpipe.sysid.method_pbsid.pbsid_orders`,
+distances, one pole per order and cluster, a minimum cluster size relative to the orders
+that can hold the mode) and report each cluster as a mode. The model order is the lowest
+whose poles hold every cluster. :func:`stabilization_diagram` reads every order off one
+projection and SVD of a subspace method (:func:`gbpipe.sysid.method_pbsid.pbsid_orders`,
 :func:`gbpipe.sysid.open_loop.open_loop_orders`); :func:`gbpipe.sysid.lscf_stabilization`
 (:mod:`.lscf`) feeds the same :func:`stabilize` from a frequency-domain fit.
 """
@@ -188,10 +186,10 @@ def stabilize(orders: np.ndarray, poles: list[PoleSet], method: str, *,
     mac_min : float
         Smallest MAC between the shapes at consecutive orders (ignored with one channel).
     min_share : float
-        A cluster is a mode when it appears in at least this share of the orders of the
-        most populated cluster, and in 3 orders at least (pyOMA2's relative minimum
-        size): a pole fitting noise stays put over a few orders only, a mode over every
-        order that can hold it.
+        A cluster is a mode when it appears in this share of the orders that can hold it
+        (from the first with a pole at its frequency) or of the largest cluster's, the
+        fewer, and in 3 orders at least (:func:`_is_mode`): a pole fitting noise stays
+        put over a few orders only, a mode over every order that can hold it.
 
     Returns
     -------
@@ -207,9 +205,9 @@ def stabilize(orders: np.ndarray, poles: list[PoleSet], method: str, *,
     candidates: list[Mode] = []
     if members:
         groups = _cluster(poles, members, frequency_tolerance)
-        min_orders = max(3, int(np.ceil(min_share * max(len(g) for g in groups))))
+        largest = max(len(g) for g in groups)
         for group in groups:
-            if len(group) >= min_orders:
+            if _is_mode(poles, group, largest, frequency_tolerance, min_share):
                 for k, i in group:
                     labels[k][i] = len(modes)
                 modes.append(_mode(poles, group))
@@ -251,6 +249,24 @@ def _cluster(poles: list[PoleSet], members: list[tuple[int, int]], freq_tol: flo
             best.setdefault(members[j][0], j)
         groups.append(sorted(members[j] for j in best.values()))
     return groups
+
+
+def _is_mode(poles: list[PoleSet], group: list[tuple[int, int]], largest: int,
+             freq_tol: float, min_share: float) -> bool:
+    """Whether a cluster of stable poles is held by enough orders to be a mode.
+
+    A model holds a mode only from the order that has room for it (the first with a pole
+    within ``freq_tol`` of the cluster's median, stable or not): a heavily damped mode,
+    or one of little participation, enters late. So ``min_share`` is taken of those
+    orders, ``room`` (that one to the highest), where they are fewer than the largest
+    cluster's; and ``room`` must reach ``min_share`` of the largest cluster: a pole that
+    enters near the top has too few orders left to tell a mode from noise that stayed
+    put a while. With ``room`` >= the largest cluster: pyOMA2's relative minimum size.
+    """
+    f = np.median([poles[k][0][i] for k, i in group])
+    room = len(poles) - int(np.argmax(_held(poles, np.array([f]), freq_tol)[:, 0]))
+    need = max(3, int(np.ceil(min_share * min(largest, room))))
+    return room >= min_share * largest and len(group) >= need
 
 
 def _mode(poles: list[PoleSet], group: list[tuple[int, int]]) -> Mode:
