@@ -100,13 +100,8 @@ class Stabilization:
 
 
 def check_orders(orders: object) -> np.ndarray:
-    """``orders`` as a strictly increasing int array of at least 2 orders >= 1.
-
-    Raises
-    ------
-    ConfigError
-        (field ``orders``) otherwise.
-    """
+    """``orders`` as a strictly increasing int array of at least 2 orders >= 1; else a
+    ConfigError (field ``orders``)."""
     arr = np.asarray(orders)
     if arr.ndim != 1 or arr.size < 2 or not np.issubdtype(arr.dtype, np.integer):
         raise ConfigError("orders", "must be a 1-D list of at least 2 integers, e.g. "
