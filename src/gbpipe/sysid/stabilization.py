@@ -183,7 +183,8 @@ def stabilize(orders: np.ndarray, poles: list[PoleSet], method: str, *,
     min_share : float
         A cluster is a mode when it appears in this share of the orders that can hold it
         (from the first with a pole at its frequency) or of the largest cluster's, the
-        fewer, and in 3 orders at least (:func:`_is_mode`): a pole fitting noise stays
+        fewer, and in 3 orders at least; the orders that can hold it must reach this share
+        of those that can hold the largest (:func:`_is_mode`): a pole fitting noise stays
         put over a few orders only, a mode over every order that can hold it.
 
     Returns
@@ -200,9 +201,9 @@ def stabilize(orders: np.ndarray, poles: list[PoleSet], method: str, *,
     candidates: list[Mode] = []
     if members:
         groups = _cluster(poles, members, frequency_tolerance)
-        largest = max(len(g) for g in groups)
+        best = max(groups, key=len)
         for group in groups:
-            if _is_mode(poles, group, largest, frequency_tolerance, min_share):
+            if _is_mode(poles, group, best, frequency_tolerance, min_share):
                 for k, i in group:
                     labels[k][i] = len(modes)
                 modes.append(_mode(poles, group))
@@ -246,22 +247,24 @@ def _cluster(poles: list[PoleSet], members: list[tuple[int, int]], freq_tol: flo
     return groups
 
 
-def _is_mode(poles: list[PoleSet], group: list[tuple[int, int]], largest: int,
-             freq_tol: float, min_share: float) -> bool:
-    """Whether a cluster of stable poles is held by enough orders to be a mode.
+def _is_mode(poles: list[PoleSet], group: list[tuple[int, int]],
+             best: list[tuple[int, int]], freq_tol: float, min_share: float) -> bool:
+    """Whether a cluster of stable poles is held by enough orders to be a mode: a model
+    holds a mode only from the order that has room for it (:func:`_room`; a heavily
+    damped or weakly participating mode enters late), so ``min_share`` is taken of those
+    orders where they are fewer than the largest cluster ``best``'s, and they must reach
+    ``min_share`` of ``best``'s room (a pole entering near the top has too few orders left
+    to tell a mode from noise that stayed put a while). Else pyOMA2's relative size."""
+    room = _room(poles, group, freq_tol)
+    need = max(3, int(np.ceil(min_share * min(len(best), room))))
+    return room >= min_share * _room(poles, best, freq_tol) and len(group) >= need
 
-    A model holds a mode only from the order that has room for it (the first with a pole
-    within ``freq_tol`` of the cluster's median, stable or not): a heavily damped mode,
-    or one of little participation, enters late. So ``min_share`` is taken of those
-    orders, ``room`` (that one to the highest), where they are fewer than the largest
-    cluster's; and ``room`` must reach ``min_share`` of the largest cluster: a pole that
-    enters near the top has too few orders left to tell a mode from noise that stayed
-    put a while. With ``room`` >= the largest cluster: pyOMA2's relative minimum size.
-    """
+
+def _room(poles: list[PoleSet], group: list[tuple[int, int]], freq_tol: float) -> int:
+    """Orders from the first with a pole within ``freq_tol`` of the cluster's median
+    frequency (stable or not) to the highest."""
     f = np.median([poles[k][0][i] for k, i in group])
-    room = len(poles) - int(np.argmax(_held(poles, np.array([f]), freq_tol)[:, 0]))
-    need = max(3, int(np.ceil(min_share * min(largest, room))))
-    return room >= min_share * largest and len(group) >= need
+    return len(poles) - int(np.argmax(_held(poles, np.array([f]), freq_tol)[:, 0]))
 
 
 def _mode(poles: list[PoleSet], group: list[tuple[int, int]]) -> Mode:
