@@ -249,31 +249,29 @@ def _cluster(poles: list[PoleSet], members: list[tuple[int, int]], freq_tol: flo
 
 def _is_mode(poles: list[PoleSet], group: list[tuple[int, int]],
              best: list[tuple[int, int]], freq_tol: float, min_share: float) -> bool:
-    """Whether a cluster of stable poles is held by enough orders to be a mode: a model
-    holds a mode only from the order that has room for it (:func:`_room`; a heavily
-    damped or weakly participating mode enters late), so ``min_share`` is taken of those
-    orders where they are fewer than the largest cluster ``best``'s, and they must reach
-    ``min_share`` of ``best``'s room (a pole entering near the top has too few orders left
-    to tell a mode from noise that stayed put a while). Else pyOMA2's relative size."""
+    """Whether a cluster of stable poles is held by enough orders to be a mode: in
+    ``min_share`` of the largest cluster ``best``'s orders (pyOMA2's relative size), or in
+    ``min_share`` of the orders that can hold it, from the one with room for it
+    (:func:`_room`; a heavily damped or weakly participating mode enters late), when those
+    reach ``min_share`` of ``best``'s (a pole entering near the top has too few orders
+    left to tell a mode from noise that stayed put a while). 3 orders at least."""
+    if len(group) >= max(3, int(np.ceil(min_share * len(best)))):
+        return True
     room = _room(poles, group, freq_tol)
-    need = max(3, int(np.ceil(min_share * min(len(best), room))))
-    return room >= min_share * _room(poles, best, freq_tol) and len(group) >= need
+    return (room >= min_share * _room(poles, best, freq_tol)
+            and len(group) >= max(3, int(np.ceil(min_share * room))))
 
 
 def _room(poles: list[PoleSet], group: list[tuple[int, int]], freq_tol: float) -> int:
-    """Orders from the first with a pole within ``freq_tol`` of the cluster's median
-    frequency (stable or not) to the highest."""
+    """Orders from the first with a pole near the cluster's median (stable or not) on."""
     f = np.median([poles[k][0][i] for k, i in group])
     return len(poles) - int(np.argmax(_held(poles, np.array([f]), freq_tol)[:, 0]))
 
 
 def _mode(poles: list[PoleSet], group: list[tuple[int, int]]) -> Mode:
-    """Median, spread and representative shape of one cluster.
-
-    The median, not the mean: the stability test bounds the change between consecutive
-    orders only, so a few members of a cluster can carry a damping far from the rest
-    (twice the median on a mode near the noise floor).
-    """
+    """Median, spread and representative shape of one cluster. The median, not the mean:
+    the stability test bounds the change between consecutive orders only, so a few members
+    can carry a damping far from the rest (twice the median on a mode near the noise)."""
     f = np.array([poles[k][0][i] for k, i in group])
     z = np.array([poles[k][1][i] for k, i in group])
     k0, i0 = group[int(np.argmin(np.abs(f - np.median(f))))]
