@@ -112,7 +112,8 @@ def test_a_mode_only_high_orders_hold_is_kept_and_a_pole_entering_at_the_top_is_
     enters at order 30 (a model has room for it from there) and is stable at 10 of its 16
     orders is a mode, though the 50 Hz mode's cluster holds 29: half of the orders that can
     hold it. A 300 Hz pole that enters at order 54, stable at the last 3 orders, has 4
-    orders left: fewer than half the largest cluster, too few to tell it from noise."""
+    orders left: fewer than half of the 30 that can hold the 50 Hz mode, too few to tell
+    it from noise."""
     orders = np.arange(2, 61, 2)
     poles = []
     for n in orders:
