@@ -33,6 +33,8 @@ Scoring, the same for every tool, on the rows in 5-350 Hz:
   same over those of them a resonance of the chain's true FRF shows (``shown``: a peak of
   at least 3 dB prominence from the motor torque to an output within the mode's
   tolerance; a mode with little participation at the input or the outputs shows none);
+  and over the ``detect``-able ones: modal SNR (the mode's own peak in the output PSD over
+  the record's noise PSD there, ``benchmarks/modal_detectability.py``) at least 1;
 * precision: ``mode`` rows matching a truth mode (any of the chain's: a real mode is no
   false claim) over all ``mode`` rows; a row labelled ``harmonic`` or ``spurious`` is no
   claim of a mode;
@@ -57,6 +59,11 @@ Tools, in one process on the same record:
 * sdypy-EMA (0.31.0) has no automatic selection (poles picked on the stability chart in a
   GUI, or nearest given frequencies): not scored, said so in the output.
 
+Each truth mode gbpipe missed is listed with its modal SNR, modal overlap (spacing over
+the sum of half-power half-widths), whether the true FRF shows it, and where it was lost
+(``modal_detectability.miss_reason``: a row of another kind, no pole at any order, poles
+not stable, stable poles but no cluster kept).
+
 Time: CPU [s] per tool over all cases (the machine is shared: wall time is not
 comparable); peak traced memory [MiB] (``tracemalloc``, a second untimed run) on the first
 ``--memory-cases`` cases.
@@ -80,6 +87,7 @@ from typing import Any
 
 import numpy as np
 import scipy.signal
+from modal_detectability import miss_reason, modal_overlap, modal_snr
 from modal_peers import measured, pyoma2_ssicov
 
 from gbpipe.config import load, merge, validate
@@ -145,8 +153,10 @@ def tolerance(case: modal_cases.Case, df: float) -> np.ndarray:
 
 
 def score(f_rows: np.ndarray, kinds: np.ndarray, case: modal_cases.Case, asked: np.ndarray,
-          shown: np.ndarray, df: float, band: tuple[float, float]) -> dict[str, int]:
-    """Counts of one tool on one case (module docstring)."""
+          shown: np.ndarray, detect: np.ndarray, df: float, band: tuple[float, float]
+          ) -> tuple[dict[str, int], np.ndarray, np.ndarray]:
+    """Counts of one tool on one case (module docstring); which truth modes a ``mode`` row
+    matched; which have a ``mode`` row within their tolerance that matched another."""
     keep = (f_rows >= band[0]) & (f_rows <= band[1])
     f_rows, kinds = f_rows[keep], kinds[keep]
     f_t = case.frequency_hz
@@ -168,12 +178,15 @@ def score(f_rows: np.ndarray, kinds: np.ndarray, case: modal_cases.Case, asked: 
     # a truth mode's row called harmonic off every order line: a mode lost to the label
     mode_harmonic = hit & ~on_line & (kinds == "harmonic")
     on_line &= ~hit
+    near = ((d <= 1.0) & is_mode[:, None]).any(axis=0) & ~found
     return {"asked": int(asked.sum()), "found": int((found & asked).sum()),
             "shown": int((asked & shown).sum()), "found_shown": int((found & asked & shown).sum()),
+            "detect": int((asked & detect).sum()),
+            "found_detect": int((found & asked & detect).sum()),
             "mode_rows": int(is_mode.sum()), "true_rows": int(true_rows),
             "line_rows": int(on_line.sum()),
             "line_harmonic": int((on_line & (kinds == "harmonic")).sum()),
-            "mode_harmonic": int(mode_harmonic.sum())}
+            "mode_harmonic": int(mode_harmonic.sum())}, found, near
 
 
 def gbpipe_modes(cfg: Any, record: Any, case: modal_cases.Case) -> tuple[Any, bool]:
@@ -210,15 +223,26 @@ def run_case(case: modal_cases.Case, folder: Path, memory: bool, peers: bool = T
     band = (float(s["frf"]["f_min"]), float(s["frf"]["f_max"]))
     asked = coherent(case, rec, s)
     shown = visible(case, df, band)
-    out: dict[str, Any] = {"counts": {}, "cost": {}}
+    fs = float(rec.attrs["sample_rate"])
+    snr = modal_snr(case.plant, case.frequency_hz, case.damping, rec["motor_torque"].values,
+                    [rec[o].values for o in PAIRING["outputs"]], fs, SEGMENT)
+    overlap = modal_overlap(case.frequency_hz, case.damping)
+    detect = snr >= 1.0
+    tol = tolerance(case, df)
+    out: dict[str, Any] = {"counts": {}, "cost": {}, "misses": []}
     (ds, out["orders_taken"]), *cost = measured(lambda: gbpipe_modes(cfg, rec, case), memory)
     out["cost"]["gbpipe (pbsid + lscf)"] = cost
     for method in ds.method.values:
         d = ds.sel({"method": method}).isel(pairing=0)
         ok = np.isfinite(d.mode_frequency.values)
-        out["counts"][f"gbpipe {method}"] = score(
+        out["counts"][f"gbpipe {method}"], found, near = score(
             d.mode_frequency.values[ok], np.asarray(d.mode_kind.values[ok], dtype=str),
-            case, asked, shown, df, band)
+            case, asked, shown, detect, df, band)
+        for j in np.flatnonzero(asked & ~found):
+            why = (miss_reason(d, case.frequency_hz[j], tol[j], near[j]) if detect[j] else
+                   "modal SNR < 1: not in the record")
+            out["misses"].append((case.name, str(method), case.frequency_hz[j],
+                                  case.damping[j], snr[j], overlap[j], bool(shown[j]), why))
     fu = build_chain(from_assembly(case.assembly)).mechanism.undamped_frequencies()
     out["import_error"] = float(np.max(np.abs(np.sort(fu) / case.frequency_hz - 1)))
     if not peers:
@@ -235,7 +259,7 @@ def run_case(case: modal_cases.Case, folder: Path, memory: bool, peers: bool = T
     out["cost"]["pyOMA2 ssi-cov + hier"] = cost
     f_peer = np.array([f for f, _ in found])
     out["counts"]["pyOMA2 ssi-cov + hier"] = score(f_peer, np.full(f_peer.size, "mode"),
-                                                   case, asked, shown, df, band)
+                                                   case, asked, shown, detect, df, band)[0]
     return out
 
 
@@ -247,8 +271,8 @@ def table(cases: list[modal_cases.Case], results: list[dict[str, Any]]) -> None:
     """The scores per tool and speed class, then the cost per tool."""
     tools = list(results[0]["counts"])
     print(f"\n{'tool':24s} {'speed':8s} {'cases':>5s} {'asked':>5s} {'recall':>6s} "
-          f"{'shown':>5s} {'recall':>6s} {'mode rows':>9s} {'precision':>9s} {'line rows':>9s} "
-          f"{'harmonic':>8s} {'modes as harmonic':>17s}")
+          f"{'shown':>5s} {'recall':>6s} {'detect':>6s} {'recall':>6s} {'mode rows':>9s} "
+          f"{'precision':>9s} {'line rows':>9s} {'harmonic':>8s} {'modes as harmonic':>17s}")
     for tool in tools:
         for cls in (*SPEEDS, "all"):
             rows = [r["counts"][tool] for c, r in zip(cases, results, strict=True)
@@ -260,7 +284,8 @@ def table(cases: list[modal_cases.Case], results: list[dict[str, Any]]) -> None:
                     f"{ratio(tot['line_harmonic'], tot['line_rows']):>8s}")
             print(f"{tool:24s} {cls:8s} {len(rows):5d} {tot['asked']:5d} "
                   f"{ratio(tot['found'], tot['asked'])} {tot['shown']:5d} "
-                  f"{ratio(tot['found_shown'], tot['shown'])} {tot['mode_rows']:9d} "
+                  f"{ratio(tot['found_shown'], tot['shown'])} {tot['detect']:6d} "
+                  f"{ratio(tot['found_detect'], tot['detect'])} {tot['mode_rows']:9d} "
                   f"{ratio(tot['true_rows'], tot['mode_rows']):>9s} {tot['line_rows']:9d} "
                   f"{harm} {tot['mode_harmonic']:17d}")
     print(f"{'sdypy-EMA lscf':24s} not scored: no automatic selection (select_poles is a "
@@ -272,6 +297,18 @@ def table(cases: list[modal_cases.Case], results: list[dict[str, Any]]) -> None:
         peak = np.array([r["cost"][tool][2] for r in results])
         print(f"{tool:24s} {np.nansum(cpu):13.1f} {np.nanmean(cpu):12.2f} "
               f"{np.nanmax(peak) if np.isfinite(peak).any() else np.nan:10.1f}")
+
+
+def misses(results: list[dict[str, Any]]) -> None:
+    """gbpipe's missed truth modes, one line each: the physics, then where it was lost."""
+    rows = [m for r in results for m in r["misses"]]
+    print(f"\ngbpipe's misses ({len(rows)}; detectable: modal SNR >= 1; overlap: spacing over "
+          "the sum of half-power half-widths; shown: a 3 dB peak of the true FRF)")
+    print(f"{'case':7s} {'method':6s} {'f [Hz]':>7s} {'zeta':>6s} {'SNR':>8s} {'overlap':>7s} "
+          f"{'shown':>5s} reason")
+    for name, method, f, z, snr, ov, shown, why in sorted(rows, key=lambda m: (m[1], m[7])):
+        print(f"{name:7s} {method:6s} {f:7.1f} {z:6.3f} {snr:8.2g} {ov:7.2f} {shown!s:>5s} "
+              f"{why}")
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -308,6 +345,7 @@ def main(argv: list[str] | None = None) -> None:
           "difference of gbpipe's imported undamped frequencies to openTorsion's: "
           f"{max(r['import_error'] for r in results):.1e}")
     table(cases, results)
+    misses(results)
     print(f"\ntotal CPU {time.process_time() - t0:.0f} s")
 
 

@@ -8,9 +8,17 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+import scipy.signal
 
 from gbpipe.errors import ConfigError
-from gbpipe.sysid import held_modes, lowest_order, moesp, pbsid, stabilization_diagram
+from gbpipe.sysid import (
+    held_modes,
+    lowest_order,
+    moesp,
+    pbsid,
+    stabilization_diagram,
+)
+from gbpipe.sysid.stabilization import stabilize
 from tests.sysid.torsional_chain import assert_true_modes, chain, record
 
 ORDERS = range(2, 41, 2)
@@ -97,3 +105,51 @@ def test_a_mode_no_order_holds_does_not_push_the_order_to_the_highest():
     assert held.tolist() == [True, True, False]
     assert lowest_order(orders, poles, wanted, 0.01) == 8       # asked for all: the highest
     assert lowest_order(orders, poles, wanted[held], 0.01) == 4
+
+
+def test_a_mode_only_high_orders_hold_is_kept_and_a_pole_entering_at_the_top_is_not():
+    """The cluster size is a share of the orders that can hold the mode. A 120 Hz mode that
+    enters at order 30 (a model has room for it from there) and is stable at 10 of its 16
+    orders is a mode, though the 50 Hz mode's cluster holds 29: half of the orders that can
+    hold it. A 300 Hz pole that enters at order 54, stable at the last 3 orders, has 4
+    orders left: fewer than half of the 30 that can hold the 50 Hz mode, too few to tell
+    it from noise."""
+    orders = np.arange(2, 61, 2)
+    poles = []
+    for n in orders:
+        f, z = [50.0], [0.02]
+        if n >= 30:  # damping jumps between orders up to 40: not stable there
+            f.append(120.0)
+            z.append(0.08 if n < 42 and (n // 2) % 2 else 0.06)
+        if n >= 54:
+            f.append(300.0)
+            z.append(0.03)
+        poles.append((np.array(f), np.array(z), np.ones((len(f), 1))))
+    st = stabilize(orders, poles, "test")
+    assert [m.frequency_hz for m in st.clusters] == [50.0, 120.0]
+    assert [m.n_orders for m in st.clusters] == [29, 10]
+    assert st.clusters[1].damping == 0.06
+    assert [(m.frequency_hz, m.n_orders) for m in st.candidates] == [(300.0, 3)]
+    assert st.order == 30  # the lowest order holding both modes
+
+
+def test_a_heavily_damped_mode_is_found_with_its_frequency_and_damping():
+    """Two modes in modal coordinates, 40 Hz at 1 % and 110 Hz at 8 % damping (half-power
+    band 17.6 Hz), white torque in, two outputs with 5 % noise: both are clusters, within
+    1 % in frequency and 20 % in damping of the truth."""
+    dt, f, z = 1e-3, np.array([40.0, 110.0]), np.array([0.01, 0.08])
+    w = 2 * np.pi * f
+    a = np.zeros((4, 4))
+    for k in range(2):
+        a[2 * k: 2 * k + 2, 2 * k: 2 * k + 2] = [[0.0, 1.0], [-w[k] ** 2, -2 * z[k] * w[k]]]
+    b = np.array([[0.0], [1.0], [0.0], [1.0]])
+    c = np.array([[0.0, 1.0, 0.0, 1.0], [0.0, 1.0, 0.0, -1.0]])
+    ad, bd, cd, dd, _ = scipy.signal.cont2discrete((a, b, c, np.zeros((2, 1))), dt)
+    rng = np.random.default_rng(0)
+    u = rng.standard_normal(20000)
+    _, y, _ = scipy.signal.dlsim((ad, bd, cd, dd, dt), u)
+    y = y + 0.05 * y.std(axis=0) * rng.standard_normal(y.shape)
+    st = stabilization_diagram(u, y, dt, ORDERS, "pbsid", past=40, future=20)
+    assert len(st.clusters) == 2
+    np.testing.assert_allclose([m.frequency_hz for m in st.clusters], f, rtol=0.01)
+    np.testing.assert_allclose([m.damping for m in st.clusters], z, rtol=0.2)

@@ -6,12 +6,10 @@ The field's practice (SSI with stabilization charts: Peeters & De Roeck, MSSP 13
 PolyMAX: Peeters, Van der Auweraer, Guillaume & Leuridan, Shock Vib. 11, 2004) is to fit a
 range of orders, flag the poles that stay put between consecutive orders, group the flagged
 poles into clusters (as pyOMA2 and sdypy-EMA do: hierarchical clustering of the frequency
-distances, one pole per order and cluster, a minimum cluster size relative to the largest)
-and report each cluster as a mode. Here the model order is the lowest order whose poles
-hold every cluster.
-
-:func:`stabilization_diagram` reads every order off one projection and SVD of a subspace
-method (:func:`gbpipe.sysid.method_pbsid.pbsid_orders`,
+distances, one pole per order and cluster, a minimum cluster size relative to the orders
+that can hold the mode) and report each cluster as a mode. The model order is the lowest
+whose poles hold every cluster. :func:`stabilization_diagram` reads every order off one
+projection and SVD of a subspace method (:func:`gbpipe.sysid.method_pbsid.pbsid_orders`,
 :func:`gbpipe.sysid.open_loop.open_loop_orders`); :func:`gbpipe.sysid.lscf_stabilization`
 (:mod:`.lscf`) feeds the same :func:`stabilize` from a frequency-domain fit.
 """
@@ -102,13 +100,8 @@ class Stabilization:
 
 
 def check_orders(orders: object) -> np.ndarray:
-    """``orders`` as a strictly increasing int array of at least 2 orders >= 1.
-
-    Raises
-    ------
-    ConfigError
-        (field ``orders``) otherwise.
-    """
+    """``orders`` as a strictly increasing int array of at least 2 orders >= 1; else a
+    ConfigError (field ``orders``)."""
     arr = np.asarray(orders)
     if arr.ndim != 1 or arr.size < 2 or not np.issubdtype(arr.dtype, np.integer):
         raise ConfigError("orders", "must be a 1-D list of at least 2 integers, e.g. "
@@ -188,10 +181,11 @@ def stabilize(orders: np.ndarray, poles: list[PoleSet], method: str, *,
     mac_min : float
         Smallest MAC between the shapes at consecutive orders (ignored with one channel).
     min_share : float
-        A cluster is a mode when it appears in at least this share of the orders of the
-        most populated cluster, and in 3 orders at least (pyOMA2's relative minimum
-        size): a pole fitting noise stays put over a few orders only, a mode over every
-        order that can hold it.
+        A cluster is a mode when it appears in this share of the orders that can hold it
+        (from the first with a pole at its frequency) or of the largest cluster's, the
+        fewer, and in 3 orders at least; the orders that can hold it must reach this share
+        of those that can hold the largest (:func:`_is_mode`): a pole fitting noise stays
+        put over a few orders only, a mode over every order that can hold it.
 
     Returns
     -------
@@ -207,9 +201,9 @@ def stabilize(orders: np.ndarray, poles: list[PoleSet], method: str, *,
     candidates: list[Mode] = []
     if members:
         groups = _cluster(poles, members, frequency_tolerance)
-        min_orders = max(3, int(np.ceil(min_share * max(len(g) for g in groups))))
+        best = max(groups, key=len)
         for group in groups:
-            if len(group) >= min_orders:
+            if _is_mode(poles, group, best, frequency_tolerance, min_share):
                 for k, i in group:
                     labels[k][i] = len(modes)
                 modes.append(_mode(poles, group))
@@ -253,13 +247,31 @@ def _cluster(poles: list[PoleSet], members: list[tuple[int, int]], freq_tol: flo
     return groups
 
 
-def _mode(poles: list[PoleSet], group: list[tuple[int, int]]) -> Mode:
-    """Median, spread and representative shape of one cluster.
+def _is_mode(poles: list[PoleSet], group: list[tuple[int, int]],
+             best: list[tuple[int, int]], freq_tol: float, min_share: float) -> bool:
+    """Whether a cluster of stable poles is held by enough orders to be a mode: in
+    ``min_share`` of the largest cluster ``best``'s orders (pyOMA2's relative size), or in
+    ``min_share`` of the orders that can hold it, from the one with room for it
+    (:func:`_room`; a heavily damped or weakly participating mode enters late), when those
+    reach ``min_share`` of ``best``'s (a pole entering near the top has too few orders
+    left to tell a mode from noise that stayed put a while). 3 orders at least."""
+    if len(group) >= max(3, int(np.ceil(min_share * len(best)))):
+        return True
+    room = _room(poles, group, freq_tol)
+    return (room >= min_share * _room(poles, best, freq_tol)
+            and len(group) >= max(3, int(np.ceil(min_share * room))))
 
-    The median, not the mean: the stability test bounds the change between consecutive
-    orders only, so a few members of a cluster can carry a damping far from the rest
-    (twice the median on a mode near the noise floor).
-    """
+
+def _room(poles: list[PoleSet], group: list[tuple[int, int]], freq_tol: float) -> int:
+    """Orders from the first with a pole near the cluster's median (stable or not) on."""
+    f = np.median([poles[k][0][i] for k, i in group])
+    return len(poles) - int(np.argmax(_held(poles, np.array([f]), freq_tol)[:, 0]))
+
+
+def _mode(poles: list[PoleSet], group: list[tuple[int, int]]) -> Mode:
+    """Median, spread and representative shape of one cluster. The median, not the mean:
+    the stability test bounds the change between consecutive orders only, so a few members
+    can carry a damping far from the rest (twice the median on a mode near the noise)."""
     f = np.array([poles[k][0][i] for k, i in group])
     z = np.array([poles[k][1][i] for k, i in group])
     k0, i0 = group[int(np.argmin(np.abs(f - np.median(f))))]
