@@ -7,7 +7,8 @@ from gbpipe.identify import record_modes
 snakemake = globals()["snakemake"]
 log = io.setup_log(snakemake.log[0])
 w, cfg = snakemake.wildcards, snakemake.params.cfg
-ds = record_modes(cfg, io.read(snakemake.input.record), snakemake.params.orders)
+# lazy: only the pairings' signals of the record are read (bounded memory on long records)
+ds = record_modes(cfg, io.read(snakemake.input.record, lazy=True), snakemake.params.orders)
 io.write(ds, snakemake.output.nc, sources=snakemake.input, stage="modes_measured",
          config={**cfg, "orders": snakemake.params.orders}, wildcards={"record": w.record},
          title=f"stabilization diagrams and modes of bench record {w.record}")

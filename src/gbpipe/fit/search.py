@@ -26,13 +26,18 @@ carries no such guarantee. See docs/fit.md.
 
 from __future__ import annotations
 
+import logging
 from typing import Any
 
 import numpy as np
 from scipy.optimize import differential_evolution, least_squares
 from scipy.stats import qmc
 
+from gbpipe.progress import Progress
+
 __all__ = ["local_run", "start_runs", "evolution_run", "needs_evolution", "SEARCHES"]
+
+log = logging.getLogger(__name__)
 
 #: Global stages: the starts alone, the starts and the evolution unless the best start fits
 #: to round-off, or both always.
@@ -134,8 +139,10 @@ def start_runs(problem: Any, lo: np.ndarray, hi: np.ndarray, n_starts: int, n_gl
     cost = [_cost(problem, p) for p in pts]
     everything = np.ones(lo.size, dtype=bool)
     runs: list[tuple[np.ndarray, float]] = []
+    progress = Progress(log, "fit: local runs from the best starts", max(n_starts, 1))
     for i in np.argsort(cost, kind="stable")[:max(n_starts, 1)]:
         runs.append(local_run(problem, pts[i], everything, lo, hi))
+        progress(len(runs), f"lowest cost {min(r[1] for r in runs):.4g}")
         # two starts that end at the same lowest cost have found the basin: the remaining
         # starts (ranked worse by the global stage) would only repeat it
         # (costs at round-off level, ~1e-21 of exact data, agree whatever their ratio)
@@ -167,7 +174,13 @@ def evolution_run(problem: Any, lo: np.ndarray, hi: np.ndarray,
     -------
     theta, cost : ndarray, float
     """
+    progress = Progress(log, "fit: differential evolution, generations", _MAXITER)
+    generations = iter(range(1, _MAXITER + 2))
+
+    def generation(xk: np.ndarray, convergence: float) -> None:
+        progress(next(generations), f"population spread {convergence:.3g} of its stop")
+
     sol = differential_evolution(lambda th: _cost(problem, th), list(zip(lo, hi, strict=True)),
                                  seed=seed, popsize=_POPSIZE, tol=_TOL, maxiter=_MAXITER,
-                                 init="latinhypercube", polish=False)
+                                 init="latinhypercube", polish=False, callback=generation)
     return local_run(problem, sol.x, np.ones(lo.size, dtype=bool), lo, hi)

@@ -37,6 +37,7 @@ from gbpipe.identify.reference import (
 )
 from gbpipe.identify.status import assess, reference_growth_rate
 from gbpipe.io import longest_segment
+from gbpipe.progress import Progress
 
 __all__ = ["identify_methods", "identify_record", "record_label"]
 
@@ -214,6 +215,8 @@ def identify_methods(cfg: Mapping[str, Any], record: xr.Dataset | Sequence[xr.Da
     # a bench record's order lines, where its nonparametric reference judges no model
     bands = _line_bands(records, line_orders, s) if truth is None else []
     rows = []  # (pairing, version, data, reference): what every method fits and is scored on
+    progress = Progress(log, "conditioning and nonparametric FRF of every pairing x version",
+                        len(s["pairings"]) * len(s["versions"]))
     for p in s["pairings"]:
         ref_truth = truth_reference(truth, p, records[0]) if truth is not None else None
         # unusable signals are refused here, before any fit (checks.py)
@@ -238,10 +241,13 @@ def identify_methods(cfg: Mapping[str, Any], record: xr.Dataset | Sequence[xr.Da
                 uv, yv = [val(p["inputs"], version)], [val(p["outputs"], version)]
             ref = ref_truth or _off_lines(nonparametric_reference(u, y, fs_id, s, r), bands)
             rows.append((p, version, (u, y, uv, yv), ref))
+            progress(len(rows), f"{p['name']}/{version}")
 
     # every method on one row before the next row: MOESP and N4SID of one data set share its
     # window products (gbpipe.sysid remembers them: gbpipe.memo)
     results: dict[str, list[dict[str, Any]]] = {method: [] for method in methods}
+    progress = Progress(log, f"{', '.join(methods)} on every pairing x version",
+                        len(rows) * len(methods))
     for p, version, data, ref in rows:
         order, source = row_order(s, p["name"], orders, order_source)
         s_row = {**s, "order": order, "order_source": source,
@@ -249,6 +255,7 @@ def identify_methods(cfg: Mapping[str, Any], record: xr.Dataset | Sequence[xr.Da
         for method in methods:
             res = _identify_row(method, p, version, data, ref, dt, s_row)
             results[method].append({**res, "order_source": source})
+            progress(sum(map(len, results.values())), f"{method} {p['name']}/{version}")
     return {method: _method_dataset(method, results[method], dt, s, records, validation, notes)
             for method in methods}
 

@@ -80,4 +80,7 @@ def setup_log(logfile: str | None = None, name: str = "gbpipe") -> logging.Logge
     if logfile:
         # registered after logging's own exit handler, so it runs before the files close
         atexit.register(_log_resources, logger)
+        # the log's first line marks the job's start (its imports done): a reader sees the
+        # job is alive, and the gap to the next line is the time without news
+        logger.info("job started: %s", Path(logfile).stem)
     return logger
