@@ -9,17 +9,17 @@ CSV with a time column, the sensors, the excitation and the tacho in a TDMS file
 segment per block). The workflow runs on them with the example's config plus the TSA
 version (``identify.versions: [raw, tsa]``) and the fit, in its own results folder; each
 job logs its own peak RSS and CPU time at exit (``results/logs/``), Snakemake its wall
-(``results/benchmarks/``). The regression and VKF removals, which the measured workflow
-does not run, are timed by :func:`gbpipe.harmonics.method_residuals` in a child process on
-the record the workflow read (its own ``getrusage``).
+(``results/benchmarks/``). With ``--removal`` the regression and VKF removals, which the
+measured workflow does not run, are timed by :func:`gbpipe.harmonics.method_residuals` in
+a child process on the record the workflow read (its own ``getrusage``).
 
 For each stage the exponent ``p`` of ``cost ~ minutes**p`` is the least-squares slope of
 ``log cost`` on ``log minutes`` over the record lengths given (a stage under 2 s of CPU at
 the longest record is dominated by its imports and is marked ``floor``). The largest gap
 between two lines of a job's log is its silence: a stage over 10 s must stay under 10 s.
 
-Usage: ``PYTHONPATH=src python benchmarks/scale.py [--minutes 6 20 60] [--fs 5000]
-[--work /tmp/gbpipe_scale] [--jobs 2] [--keep]``
+Usage: ``PYTHONPATH=$PWD/src python benchmarks/scale.py [--minutes 6 20 60] [--fs 5000]
+[--work /tmp/gbpipe_scale] [--jobs 2] [--removal] [--json FILE]``
 """
 
 from __future__ import annotations
@@ -211,7 +211,7 @@ def longest_silence(log: Path) -> float:
     return float(np.max(np.diff(stamps))) if len(stamps) > 1 else 0.0
 
 
-def run_workflow(work: Path, minutes: float, fs: float, jobs: int) -> dict:
+def run_workflow(work: Path, minutes: float, fs: float, jobs: int, removal: bool) -> dict:
     """Write one record, run the workflow on it, return the stage costs and totals."""
     folder = work / f"{minutes:g}min"
     t = time.perf_counter()
@@ -228,7 +228,7 @@ def run_workflow(work: Path, minutes: float, fs: float, jobs: int) -> dict:
                        stderr=subprocess.STDOUT)
     wall = time.perf_counter() - t
     costs = stage_costs(results)
-    for method in ("regression", "vkf"):
+    for method in ("regression", "vkf") if removal else ():
         out = subprocess.run([sys.executable, "-c", _REMOVAL_CHILD,
                               str(results / "measured" / "run1.nc"), method,
                               str(ROOT / "config" / "config.yaml"), str(EXAMPLE),
@@ -260,10 +260,14 @@ def main() -> None:
     ap.add_argument("--work", type=Path, default=Path("/tmp/gbpipe_scale"))
     ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument("--json", type=Path, help="also write the measurements here")
+    ap.add_argument("--removal", action="store_true",
+                    help="also time the regression and VKF removals of every signal (not "
+                         "workflow stages of a bench record; VKF: about 40 s of CPU per "
+                         "minute of record, 1.4 GB at 6 min)")
     args = ap.parse_args()
     rows = []
     for minutes in args.minutes:
-        rows.append(run_workflow(args.work, minutes, args.fs, args.jobs))
+        rows.append(run_workflow(args.work, minutes, args.fs, args.jobs, args.removal))
         r = rows[-1]
         print(f"\n{minutes:g} min at {args.fs:g} Hz: workflow {r['workflow_wall_s']:.0f} s wall")
         print(f"{'stage':32} {'jobs':>4} {'wall s':>8} {'CPU s':>8} {'RSS MB':>8} "

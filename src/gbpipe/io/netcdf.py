@@ -137,9 +137,10 @@ def read(path: str | os.PathLike, lazy: bool = False) -> xr.Dataset:
     path : path-like
         A file written by :func:`write`.
     lazy : bool
-        Read each variable from the file when it is first used (then kept in memory), not
-        all at once; the file stays open while the dataset lives. A stage that uses a few
-        signals of an hour-long record (1.3 GB for 9 channels at 5 kHz) holds those only.
+        Read a variable from the file each time its values are used (nothing is kept),
+        not all at once; the file stays open while the dataset lives. A stage that uses a
+        few signals of an hour-long record (1.3 GB for 9 channels at 5 kHz) holds only its
+        working copies (xarray's cache would keep every slice it was asked for).
 
     Returns
     -------
@@ -153,7 +154,7 @@ def read(path: str | os.PathLike, lazy: bool = False) -> xr.Dataset:
     path = Path(path)
     if not path.is_file():
         raise FileNotFoundError(f"no NetCDF file at {path}: run the stage that makes it first")
-    ds = xr.open_dataset(path, engine="netcdf4", decode_times=False)
+    ds = xr.open_dataset(path, engine="netcdf4", decode_times=False, cache=not lazy)
     if not lazy:
         with ds:
             ds.load()
