@@ -75,6 +75,7 @@ else:
     include: "workflow/rules/measured.smk"
     include: "workflow/rules/modes.smk"
     include: "workflow/rules/fit.smk"
+    include: "workflow/rules/virtual.smk"
 
     rule all:
         default_target: True

@@ -34,8 +34,10 @@ def _resolve(run, pattern: str):
 
 
 def _run_of(pattern: str, ci_run, measured_run):
-    # outputs of bench records come from the measured example, the rest from the CI run
-    return measured_run[0] if "measured/" in pattern else ci_run
+    # outputs of bench records (and their virtual sensors) come from the measured
+    # example, the rest from the CI run
+    bench = "measured/" in pattern or pattern.startswith("virtual/")
+    return measured_run[0] if bench else ci_run
 
 
 def test_contract_lists_every_stage_output(ci_run, measured_run):

@@ -83,7 +83,7 @@ DRIVETRAIN = {"drivetrain": config["drivetrain"]} if config.get("drivetrain") el
 
 def all_targets():
     if config["measured"]:
-        return measured_targets() + fit_targets()
+        return measured_targets() + fit_targets() + virtual_targets()
     if config.get("drivetrain"):
         # a described drivetrain's campaign: the gearbox-specific stages (kinematics,
         # Table 2, the sweep, TSA, harmonic removal, figures 7-17) are the paper bench's

@@ -41,6 +41,7 @@ from gbpipe.config import (
     measured,
     processing,
     records,
+    virtual,
 )
 from gbpipe.config.derive import Config, derive
 from gbpipe.config.schema_validation import apply_schema
@@ -105,6 +106,7 @@ def validate(cfg: Mapping[str, Any], *, check_stability: bool = True) -> Config:
     identification.check_identify(out)
     measured.check_measured(out)
     fit.check_fit(out)
+    virtual.check_virtual(out)
     if check_stability:
         bounds.check_gains(out)
     if out["fit"]["records"] and out["fit"]["start"]:

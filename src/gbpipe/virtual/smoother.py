@@ -1,0 +1,316 @@
+"""Steady-state Kalman filter and Rauch–Tung–Striebel smoother of an estimation model, the
+offsets and initial state by generalised least squares, and the 95 % bands.
+
+The gains come from the discrete algebraic Riccati equation
+(``scipy.linalg.solve_discrete_are``: the predicted covariance ``P``); the filter and the
+smoother are then linear time-invariant recursions, run with the exact block simulator
+:func:`gbpipe.lti.dlsim` (forward: the one-step predictor; backward: the RTS recursion
+``x̂s[k] = x̂f[k] + G (x̂s[k+1] − x̂p[k+1])``, ``G = P_f Aᵀ P⁻¹``). The smoothed covariance
+is the steady state of the RTS covariance recursion, a discrete Lyapunov equation
+(``scipy.linalg.solve_discrete_lyapunov``): ``Ps = G Ps Gᵀ + P_f − G P Gᵀ``.
+
+The constant offsets ``b`` and the initial state ``x0`` enter the innovations linearly,
+``e[k] = e0[k] − R[k] θ``, ``θ = [x0, b]`` with ``R[k] = [C Φᵏ, Gy + C Σ_{j<k} Φʲ Γ]``
+(``Φ`` the predictor's state matrix): they are estimated by generalised least squares over
+the whole record (the diffuse prior of a constant; no tuning), the powers ``C Φᵏ`` only
+until they have decayed to 1e-10. The band of an estimate adds the offsets' uncertainty
+(their covariance through the smoother's static gain) to ``C_z Ps C_zᵀ`` and, where an
+estimate reads a motor torque directly, that torque's noise. Near the record's ends the
+band is the steady one (the transient of the initial state is not in it).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import linalg
+
+from gbpipe.errors import DataError
+from gbpipe.lti import dlsim
+from gbpipe.virtual.model import EstimationModel
+
+__all__ = ["NoiseModel", "Gains", "Estimate", "gains", "innovations", "smooth", "Z95"]
+
+#: Two-sided 95 % normal quantile.
+Z95 = 1.959963984540054
+#: Size [-] below which the predictor's free response ``C Φᵏ`` counts as decayed.
+_DECAYED = 1e-10
+#: Relative information [-] below which a direction of the initial state and offsets is
+#: left at 0 (pseudo-inverse of the scaled normal matrix).
+_RCOND = 1e-8
+#: Excess [-] of an estimate's variance over its steady variance at which the start (end)
+#: transient ends: the band's half width then within 2.5 % of the true one (a 95 % band
+#: holds at least 94.4 %); the samples between are the steady part (``Estimate.steady``).
+_TRANSIENT = 0.05
+#: Points [-] at which a transient's decay is evaluated at most (every sample of a record
+#: that short, else every ``ceil(N / _GRID)``-th: a transient ends on that grid).
+_GRID = 4096
+
+
+@dataclass
+class NoiseModel:
+    """Noise of an estimation model.
+
+    Attributes
+    ----------
+    sensor_sd : ndarray
+        Standard deviation of each measured channel's white noise [its unit].
+    input_sd : ndarray
+        Standard deviation of each measured motor torque's noise [N·m] (process noise).
+    load_rate : ndarray
+        Random-walk intensity of each unknown load [N·m/√s] (increment sd per sample:
+        ``load_rate·√dt``).
+    model_sd : float
+        Standard deviation [N·m] of a white torque on every independent coordinate, held
+        over a sample: what the model leaves out (it also keeps every state's predicted
+        covariance positive).
+    """
+
+    sensor_sd: np.ndarray
+    input_sd: np.ndarray
+    load_rate: np.ndarray
+    model_sd: float
+
+    def covariances(self, model: EstimationModel) -> tuple[np.ndarray, np.ndarray]:
+        """Process ``Q`` (n, n) and measurement ``R`` (p, p) covariances of ``model``."""
+        bu = model.B * self.input_sd
+        Q = bu @ bu.T + self.model_sd ** 2 * (model.Bw @ model.Bw.T)
+        Q[model.load_states, model.load_states] += self.load_rate ** 2 * model.dt
+        return Q, np.diag(self.sensor_sd ** 2)
+
+
+@dataclass
+class Gains:
+    """Steady-state filter and smoother of one model and noise.
+
+    Attributes
+    ----------
+    P, Pf, Ps : ndarray
+        Predicted, filtered and smoothed state covariances (n, n).
+    K : ndarray
+        Filter gain (n, p): ``x̂f = x̂p + K e``.
+    S : ndarray
+        Innovation covariance (p, p).
+    Phi : ndarray
+        Predictor state matrix ``A (I − K C)``.
+    G : ndarray
+        RTS smoother gain (n, n).
+    """
+
+    P: np.ndarray
+    Pf: np.ndarray
+    Ps: np.ndarray
+    K: np.ndarray
+    S: np.ndarray
+    Phi: np.ndarray
+    G: np.ndarray
+
+
+@dataclass
+class Estimate:
+    """Smoothed estimates of a record.
+
+    Attributes
+    ----------
+    z : ndarray
+        Estimates (N, r) of ``model.targets`` then the loads [their units].
+    sd : ndarray
+        Standard deviation (r + n_loads,) of each estimate (steady state) [its unit].
+    offsets, offsets_sd : ndarray
+        Estimated offsets and their standard deviations [N·m].
+    innovation : ndarray
+        Innovations (N, p) with the offsets and initial state removed.
+    neg2_loglik : float
+        −2 log-likelihood of the record, the noise scale concentrated out [-].
+    scale : float
+        That scale: ``Σ eᵀS⁻¹e / (N p)`` [-] (1 for a noise model that fits).
+    steady : ndarray of bool (N,)
+        Samples where the steady band holds: every estimate's variance within 5 % of its
+        steady one. At the start, the initial state's error (its GLS covariance ``Σ₀``)
+        through the predictor, ``C_z Φᵏ Σ₀ Φᵏᵀ C_zᵀ`` (the filter's; the smoother's is
+        smaller); at the end, the RTS covariance recursion from the filtered covariance,
+        exactly ``C_z Gʲ (P_f − P_s) Gʲᵀ C_zᵀ``, ``j`` samples before the last. Both decay
+        as ``ρ²ᵏ`` (``ρ`` the spectral radius of ``Φ``, ``G``): a few time constants.
+    """
+
+    z: np.ndarray
+    sd: np.ndarray
+    offsets: np.ndarray
+    offsets_sd: np.ndarray
+    innovation: np.ndarray
+    neg2_loglik: float
+    scale: float
+    steady: np.ndarray
+
+
+def gains(model: EstimationModel, noise: NoiseModel) -> Gains:
+    """Steady-state Kalman and RTS gains (module docstring).
+
+    Raises
+    ------
+    gbpipe.errors.DataError
+        The Riccati equation has no stabilising solution for this noise model.
+    """
+    A, C = model.A, model.C
+    Q, R = noise.covariances(model)
+    try:
+        P = linalg.solve_discrete_are(A.T, C.T, Q, R)
+    except (np.linalg.LinAlgError, ValueError) as exc:
+        raise DataError("virtual", f"no steady-state Kalman filter for this noise model "
+                        f"({exc}): give every motor torque and load a noise > 0") from exc
+    P = 0.5 * (P + P.T)
+    S = C @ P @ C.T + R
+    K = linalg.solve(S, C @ P, assume_a="pos").T
+    Pf = P - K @ C @ P
+    Pf = 0.5 * (Pf + Pf.T)
+    # G = Pf Aᵀ P⁻¹ (P and Pf symmetric), P equilibrated first: its states mix rad and
+    # rad/s and N·m, diagonal entries decades apart
+    d = np.sqrt(np.diag(P))
+    G = ((linalg.pinvh(P / np.outer(d, d)) @ ((A @ Pf) / d[:, None])) / d[:, None]).T
+    Ps = linalg.solve_discrete_lyapunov(G, Pf - G @ P @ G.T)
+    return Gains(P, Pf, 0.5 * (Ps + Ps.T), K, S, A - A @ K @ C, G)
+
+
+def _free_response(C: np.ndarray, Phi: np.ndarray, n_samples: int) -> np.ndarray:
+    """``C Φᵏ`` (L, p, n) until it has decayed (L ≤ n_samples), by doubling."""
+    rho = max(np.max(np.abs(np.linalg.eigvals(Phi))), 1e-300)
+    length = n_samples if rho >= 1 else min(n_samples, int(np.ceil(
+        np.log(_DECAYED) / np.log(rho))) + 1)
+    p, n = C.shape
+    out, power = C, Phi
+    # rows stacked (k p, n): one product per doubling
+    while out.shape[0] < length * p:
+        out = np.vstack([out, out @ power])
+        power = power @ power
+    return out[:length * p].reshape(length, p, n)
+
+
+def innovations(model: EstimationModel, g: Gains, y: np.ndarray, u: np.ndarray
+                ) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
+    """Innovations and the GLS estimate of ``θ = [x0, b]``.
+
+    Parameters
+    ----------
+    y : ndarray (N, p)
+        Measured channels [their units].
+    u : ndarray (N, m)
+        Motor torques [N·m].
+
+    Returns
+    -------
+    theta : ndarray (n + nb,)
+    theta_cov : ndarray (n + nb, n + nb)
+        Covariance of ``θ`` (pseudo-inverse of the normal matrix; unit noise scale).
+    e : ndarray (N, p)
+        Innovations with ``θ`` removed.
+    rss : float
+        ``Σ eᵀ S⁻¹ e`` [-].
+    """
+    A, C, K, Phi = model.A, model.C, g.K, g.Phi
+    n, nb, (N, p) = A.shape[0], model.Gx.shape[1], y.shape
+    AK = A @ K
+    e0 = dlsim(Phi, np.hstack([AK, model.B - AK @ model.D]), -C,
+               np.hstack([np.eye(p), -model.D]), np.hstack([y, u]))
+    W = linalg.inv(linalg.cholesky(g.S, lower=True))
+    we = e0 @ W.T
+    O = _free_response(C, Phi, N)
+    L = O.shape[0]
+    Gamma = model.Gx - AK @ model.Gy
+    H = O @ Gamma
+    Rb = model.Gy + np.concatenate([np.zeros((1, p, nb)), np.cumsum(H, axis=0)[:-1]])
+    Rt = W @ np.concatenate([O, Rb], axis=2)                 # (L, p, n + nb)
+    flat = Rt.reshape(L * p, n + nb)
+    normal = flat.T @ flat
+    rhs = flat.T @ we[:L].reshape(L * p)
+    if L < N and nb:
+        rb_inf = W @ (model.Gy + C @ linalg.solve(np.eye(n) - Phi, Gamma))
+        normal[n:, n:] += (N - L) * rb_inf.T @ rb_inf
+        rhs[n:] += rb_inf.T @ we[L:].sum(axis=0)
+    # scaled by each state's steady uncertainty (and the offsets by their own
+    # information) before the pseudo-inverse: a direction of x0 the record does not
+    # determine to 1e-8 of the best one is left at 0, never fitted to the noise
+    scale = np.concatenate([np.sqrt(np.diag(g.P)), 1 / np.sqrt(np.diag(normal)[n:])])
+    cov = linalg.pinvh(normal * np.outer(scale, scale), rtol=_RCOND) * np.outer(scale, scale)
+    theta = cov @ rhs
+    wres = we.copy()
+    wres[:L] -= Rt @ theta
+    if L < N and nb:
+        wres[L:] -= rb_inf @ theta[n:]
+    e = wres @ linalg.inv(W).T
+    return theta, cov, e, float(np.sum(wres ** 2))
+
+
+def smooth(model: EstimationModel, noise: NoiseModel, y: np.ndarray, u: np.ndarray
+           ) -> Estimate:
+    """Smoothed targets and loads of a record, with their standard deviations.
+
+    Parameters
+    ----------
+    model : EstimationModel
+    noise : NoiseModel
+    y : ndarray (N, p)
+        Measured channels in ``model.measured`` order [their units].
+    u : ndarray (N, m)
+        Motor torques in ``model.inputs`` order [N·m].
+    """
+    g = gains(model, noise)
+    theta, cov, e, rss = innovations(model, g, y, u)
+    A, C, K = model.A, model.C, g.K
+    n, nb, (N, p) = A.shape[0], model.Gx.shape[1], y.shape
+    x0, b = theta[:n], theta[n:]
+    Gamma = model.Gx - A @ K @ model.Gy
+    # forward: the filtered state x̂f = Cf x̂p + Df w (x0 and the offsets known), output
+    # straight as the smoother's drive d[k] = x̂f[k] − G x̂p[k+1], x̂p[k+1] = A x̂f[k] + B u[k]
+    # + Gx b: d = (I − G A) x̂f − G B u − G Gx b (one product per sample, not three)
+    w = np.hstack([y, u, np.ones((N, 1))])
+    Bp = np.hstack([A @ K, model.B - A @ K @ model.D, (Gamma @ b)[:, None]])
+    Cf = np.eye(n) - K @ C
+    Df = np.hstack([K, -K @ model.D, -(K @ model.Gy @ b)[:, None]])
+    IGA = np.eye(n) - g.G @ A
+    Dd = IGA @ Df - np.hstack([np.zeros((n, p)), g.G @ model.B,
+                               (g.G @ model.Gx @ b)[:, None]])
+    d, xp_last = dlsim(g.Phi, Bp, IGA @ Cf, Dd, w[:-1], x0, return_state=True)
+    xf_last = Cf @ xp_last + Df @ w[-1]
+    # backward: r[j] = x̂s[N−1−j], r[j+1] = G r[j] + d[N−2−j]
+    out = np.vstack([model.Cz, np.eye(n)[model.load_states]])
+    back = np.vstack([d[::-1], np.zeros((1, n))])
+    zs = dlsim(g.G, np.eye(n), out, np.zeros((len(out), n)), back, xf_last)[::-1]
+    dz = np.vstack([model.Dz, np.zeros((len(model.load_states), model.Dz.shape[1]))])
+    z = zs + u @ dz.T
+    var = np.einsum("ij,jk,ik->i", out, g.Ps, out) + (dz * noise.input_sd) ** 2 @ np.ones(
+        dz.shape[1])
+    scale = rss / (N * p)
+    cov_b = cov[n:, n:] * scale
+    if nb:
+        # the smoother's static gain to an offset error (steady-state responses)
+        xp = linalg.solve(np.eye(n) - g.Phi, Gamma)
+        xfi = (np.eye(n) - K @ C) @ xp - K @ model.Gy
+        xs = linalg.solve(np.eye(n) - g.G, xfi - g.G @ (A @ xfi + model.Gx))
+        J = out @ xs
+        var = var + np.einsum("ij,jk,ik->i", J, cov_b, J)
+    logdet = np.linalg.slogdet(g.S)[1]
+    neg2 = N * logdet + N * p * np.log(max(scale, 1e-300)) + N * p
+    k = np.arange(N)
+    tol = _TRANSIENT * var
+    # the GLS covariance at unit scale, as var (the noise model as given)
+    start = _transient(out, g.Phi, cov[:n, :n], tol, N)
+    end = _transient(out, g.G, g.Pf - g.Ps, tol, N)
+    steady = (k >= start) & (N - 1 - k >= end)
+    return Estimate(z, np.sqrt(var), b, np.sqrt(np.diag(cov_b)), e, float(neg2),
+                    float(scale), steady)
+
+
+def _transient(out: np.ndarray, m: np.ndarray, excess: np.ndarray, tol: np.ndarray,
+               n_samples: int) -> int:
+    """Samples until ``diag(out mᵏ excess mᵏᵀ outᵀ)`` stays at or below ``tol`` (every
+    output) for good: the steps of the covariance recursion ``D ← m D mᵀ`` (module
+    docstring of ``Estimate.steady``), evaluated every ``step`` samples."""
+    step = max(1, int(np.ceil(n_samples / _GRID)))
+    power = np.linalg.matrix_power(m, step)
+    o, above = out, []
+    for _ in range(int(np.ceil(n_samples / step))):
+        above.append(np.any(np.einsum("ij,jk,ik->i", o, excess, o) > tol))
+        o = o @ power
+    hits = np.flatnonzero(above)
+    return 0 if hits.size == 0 else min(n_samples, int(hits[-1] + 1) * step)
