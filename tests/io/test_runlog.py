@@ -21,6 +21,8 @@ def test_warnings_reach_the_job_log_even_when_root_has_a_handler(tmp_path):
     run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          check=True)
     text = log.read_text()
+    # the first line marks the job's start (a reader sees it alive before its first news)
+    assert text.splitlines()[0].endswith("INFO job started: job")
     assert "INFO stage started" in text
     assert "WARNING" in text and "joint TSA stopped at pass 4" in text
     assert "joint TSA stopped at pass 4" in run.stderr  # and on the job's stderr
