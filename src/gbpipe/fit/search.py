@@ -79,7 +79,13 @@ def local_run(problem: Any, theta: np.ndarray, active: np.ndarray, lo: np.ndarra
     theta, cost : ndarray, float
         The optimum and ``½ Σ r²`` there.
     """
-    sol = least_squares(lambda s: problem.residual(_embed(theta, s, active)),
+    progress = Progress(log, "fit: local least squares, model evaluations")
+
+    def residual(s: np.ndarray) -> np.ndarray:
+        progress(problem.n_evaluations)
+        return problem.residual(_embed(theta, s, active))
+
+    sol = least_squares(residual,
                         np.clip(theta[active], lo[active], hi[active]),
                         bounds=(lo[active], hi[active]), method="trf", x_scale=1.0,
                         xtol=1e-12, ftol=1e-12, gtol=1e-12, max_nfev=100 * int(active.sum()))
@@ -136,13 +142,15 @@ def start_runs(problem: Any, lo: np.ndarray, hi: np.ndarray, n_starts: int, n_gl
     if n_global > 0:
         lhs = qmc.LatinHypercube(d=lo.size, seed=seed).random(n_global)
         pts = np.vstack([pts, qmc.scale(lhs, lo, hi)])
-    cost = [_cost(problem, p) for p in pts]
+    progress = Progress(log, "fit: costs of the Latin-hypercube starts", len(pts))
+    cost = []
+    for p in pts:
+        cost.append(_cost(problem, p))
+        progress(len(cost))
     everything = np.ones(lo.size, dtype=bool)
     runs: list[tuple[np.ndarray, float]] = []
-    progress = Progress(log, "fit: local runs from the best starts", max(n_starts, 1))
     for i in np.argsort(cost, kind="stable")[:max(n_starts, 1)]:
         runs.append(local_run(problem, pts[i], everything, lo, hi))
-        progress(len(runs), f"lowest cost {min(r[1] for r in runs):.4g}")
         # two starts that end at the same lowest cost have found the basin: the remaining
         # starts (ranked worse by the global stage) would only repeat it
         # (costs at round-off level, ~1e-21 of exact data, agree whatever their ratio)
