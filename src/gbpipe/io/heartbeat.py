@@ -10,7 +10,8 @@ innermost frame in gbpipe, else the innermost)::
     still working: condition (gbpipe/identify/prepare.py:159), 8 s since the last line
 
 so that a person watching the log (or Snakemake's output) never waits more than about
-``EVERY`` seconds for news. The thread wakes once a second and costs nothing measurable.
+``EVERY`` seconds for news (more only while the main thread holds the interpreter lock in
+one long C call). The thread wakes four times a second and costs nothing measurable.
 """
 
 from __future__ import annotations
@@ -69,7 +70,7 @@ class Heartbeat(logging.Handler):
 
     def _watch(self) -> None:
         while True:
-            time.sleep(min(1.0, self.every / 4))
+            time.sleep(min(0.25, self.every / 4))
             silent = time.monotonic() - self.last
             if silent >= self.every:
                 self.logger.info("still working: %s, %.0f s since the last line",
