@@ -13,6 +13,10 @@ job logs its own peak RSS and CPU time at exit (``results/logs/``), Snakemake it
 measured workflow does not run, are timed by :func:`gbpipe.harmonics.method_residuals` in
 a child process on the record the workflow read (its own ``getrusage``).
 
+The example's config includes the ``virtual`` stage (since the merge of branch ``virt``):
+it keeps the whole record's smoother states, 4.0 GB at 20 min, about 12 GB at 60 min
+(docs/cluster.md); mind the machine's memory before ``--minutes 60``.
+
 For each stage the exponent ``p`` of ``cost ~ minutes**p`` is the least-squares slope of
 ``log cost`` on ``log minutes`` over the record lengths given (a stage under 2 s of CPU at
 the longest record is dominated by its imports and is marked ``floor``). The largest gap
