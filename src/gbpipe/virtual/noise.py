@@ -68,7 +68,7 @@ def neg2_loglik(model: EstimationModel, noise: NoiseModel, y: np.ndarray, u: np.
     """−2 log-likelihood per sample of ``(y, u)`` with the scale concentrated out, and
     that scale [-]."""
     g = gains(model, noise)
-    _, _, _, rss = innovations(model, g, y, u)
+    _, _, rss = innovations(model, g, y, u)
     N, p = y.shape
     scale = rss / (N * p)
     return float(np.linalg.slogdet(g.S)[1] + p * np.log(scale) + p), scale
