@@ -305,7 +305,7 @@ def smooth(model: EstimationModel, noise: NoiseModel, y: np.ndarray, u: np.ndarr
         zs[k0 + 1:k1 + 1] = zk[::-1]
     zs[0] = out @ xs
     dz = np.vstack([model.Dz, np.zeros((len(model.load_states), model.Dz.shape[1]))])
-    z = zs + u @ dz.T
+    zs += u @ dz.T   # in place: an (N, r) array less at the peak
     var = np.einsum("ij,jk,ik->i", out, g.Ps, out) + (dz * noise.input_sd) ** 2 @ np.ones(
         dz.shape[1])
     scale = rss / (N * p)
@@ -325,7 +325,7 @@ def smooth(model: EstimationModel, noise: NoiseModel, y: np.ndarray, u: np.ndarr
     start = _transient(out, g.Phi, cov[:n, :n], tol, N)
     end = _transient(out, g.G, g.Pf - g.Ps, tol, N)
     steady = (k >= start) & (N - 1 - k >= end)
-    return Estimate(z, np.sqrt(var), b, np.sqrt(np.diag(cov_b)), float(neg2),
+    return Estimate(zs, np.sqrt(var), b, np.sqrt(np.diag(cov_b)), float(neg2),
                     float(scale), steady)
 
 
