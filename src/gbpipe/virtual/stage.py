@@ -136,6 +136,7 @@ def virtual_record(settings: Mapping[str, Any], model_cfg: Mapping[str, Any],
                        nf.noise.load_rate, nf.noise.model_sd)
     holdout_sd = nf.noise.sensor_sd[len(sensors):]
     est = smooth(model, noise, y, u)
+    del y, u   # the record's channels, no longer needed: their memory for the output's
     labels = model.targets + [model.states[i] for i in model.load_states]
     # a target's unit: its sensor's or state's; shaft torques and loads are N m
     units = [model.units.get(s, "N m") for s in labels]
