@@ -75,3 +75,27 @@ def test_exact_powers_equal_rational_arithmetic():
     # the float64 chain loses most digits here: the exactness is what the test shows
     chain = np.linalg.matrix_power(a, 12)
     assert np.abs(chain - ref).max() > 1e3 * np.finfo(float).eps * np.abs(ref).max()
+
+
+def test_exact_krylov_keeps_every_decayed_term_exact():
+    """b, a b, .., a^100 b of a stable non-normal matrix against exact fractions, each term
+    to its own size: the doubling's products hold terms from 1 down to about 1e-100 side
+    by side (the lifted matrices of a damped system, e.g. a Kalman predictor, whose block
+    is up to 256 samples), and a truncation relative to the block's largest term left the
+    small ones with no correct digit."""
+    rng = np.random.default_rng(11)
+    q1, q2 = (np.linalg.qr(rng.standard_normal((4, 4)))[0] for _ in range(2))
+    v = q1 @ np.diag([1.0, 1e-1, 1e-2, 1e-3]) @ q2  # eigenvector condition 1e3
+    a = v @ np.diag([0.1, -0.08, 0.05, 0.02]) @ np.linalg.inv(v)
+    b = rng.standard_normal((4, 2))
+    exact = [[Fraction(x) for x in row] for row in a]
+    krylov = [[[Fraction(x) for x in row] for row in b]]
+    for _ in range(100):
+        krylov.append(_fraction_product(exact, krylov[-1]))
+    ref = np.array([[[float(x) for x in row] for row in term] for term in krylov])
+    got = exact_krylov(a, b, 100).astype(float)
+    size = np.abs(ref).max(axis=(1, 2))
+    assert size[-1] < 1e-90 * size[0]   # the terms span 90 decades
+    err = np.abs(got - ref).max(axis=(1, 2)) / size
+    # long double truncation 2^-63 of each entry, the float64 view 2^-53
+    assert err.max() <= 2.3e-16

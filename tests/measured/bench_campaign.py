@@ -30,7 +30,11 @@ JITTER = 2e-6  # s rms: time-stamp jitter of the encoder logger
 def tacho_voltage(t: np.ndarray, speed: np.ndarray, ppr: int) -> np.ndarray:
     """A smooth 0-5 V tacho whose rising mid-level crossings are the pulses of a shaft
     turning at ``speed`` [rad/s] with ``ppr`` pulses per revolution."""
-    theta = cumulative_trapezoid(speed, t, initial=0.0)
+    return tacho_of_angle(cumulative_trapezoid(speed, t, initial=0.0), ppr)
+
+
+def tacho_of_angle(theta: np.ndarray, ppr: int) -> np.ndarray:
+    """The 0-5 V tacho of :func:`tacho_voltage` of a shaft at angle ``theta`` [rad]."""
     return 2.5 + 2.5 * np.sin(ppr * theta + 0.3)
 
 

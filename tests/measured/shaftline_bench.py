@@ -82,7 +82,7 @@ def example_drivetrain() -> dict[str, Any]:
     return {"drivetrain": read_yaml(EXAMPLE)["drivetrain"]}
 
 
-def _static_speeds(cfg: dict, speed: float) -> dict[str, float]:
+def static_speeds(cfg: dict, speed: float) -> dict[str, float]:
     """Every disk's speed [rad/s] when the chain turns rigidly (no spring twisted, the
     ground held) with its first disk at ``speed``: the null space of the twist maps (a
     damper to ground, a mount of stiffness 0, holds no angle)."""
@@ -126,14 +126,14 @@ def simulate(cfg: dict, fs: float, duration: float, seed: int, tacho_disk: str,
         u = signal.decimate(u, oversample, ftype="fir", axis=0)
     out_r = {name: u[:, i] for i, name in enumerate(ss.inputs)
              if references and name.removeprefix("disturbance_") in excited}
-    speeds = _static_speeds(cfg, SPEED)
+    speeds = static_speeds(cfg, SPEED)
     desc = cfg["drivetrain"]
     out: dict[str, np.ndarray] = {"time": t, **out_r}
     for j, name in enumerate(ss.outputs):
         dyn = y[:, j] + NOISE_SHARE * y[:, j].std() * rng.standard_normal(n)
-        out[name] = dyn + _offset(desc, name, speeds)
+        out[name] = dyn + static_offset(desc, name, speeds)
     node = tacho_disk
-    out["tacho"] = tacho_voltage(t, speeds[node] + y[:, ss.outputs.index(_speed_sensor(
+    out["tacho"] = tacho_voltage(t, speeds[node] + y[:, ss.outputs.index(speed_sensor(
         desc, node))], 1)
     return out
 
@@ -193,11 +193,11 @@ def perturbed(cfg: dict, free: list[str], rng: np.random.Generator) -> tuple[dic
         return truth, factors
 
 
-def _speed_sensor(desc: dict, node: str) -> str:
+def speed_sensor(desc: dict, node: str) -> str:
     return next(s["name"] for s in desc["sensors"] if s.get("speed") == node)
 
 
-def _offset(desc: dict, name: str, speeds: dict[str, float]) -> float:
+def static_offset(desc: dict, name: str, speeds: dict[str, float]) -> float:
     # static value of a signal at the operating point (lossless: torque x speed constant)
     sensor = next((s for s in desc["sensors"] if s["name"] == name), None)
     # the motor that holds the load: the torque-controlled one, else (motors without

@@ -62,6 +62,32 @@ def test_a_retry_asks_for_more():
     assert res["runtime"](None, 3) == 3 * DECLARED.rules[rule]["runtime"]
 
 
+def test_bench_record_memory_grows_with_the_record():
+    """The rules that hold a bench record ask for memory (and the computing ones for run
+    time) growing with their input files' size (Snakemake passes ``input``), an
+    hour-long record's GBs on the first attempt; a rule without a declared growth asks
+    for the same at any input."""
+    class Input:   # Snakemake's InputFiles: its size_mb
+        def __init__(self, size_mb: float) -> None:
+            self.size_mb = size_mb
+
+    for rule in ("measured", "spectra_measured", "tsa_measured", "modes_measured",
+                 "identify_measured", "virtual"):
+        slope = DECLARED.per_input_mb[rule]
+        assert slope > 0, rule
+        res = DECLARED.resources(rule)
+        small, big = (res["mem_mb"](None, 1, input=Input(mb)) for mb in (10.0, 1000.0))
+        assert big - small == math.ceil(slope * 1000.0) - math.ceil(slope * 10.0), rule
+        assert res["mem_mb"](None, 2, input=Input(1000.0)) == 2 * big
+        per_min = DECLARED.runtime_per_input_mb[rule]
+        assert res["runtime"](None, 1, input=Input(1000.0)) == (
+            DECLARED.rules[rule]["runtime"] + math.ceil(per_min * 1000.0))
+    assert DECLARED.runtime_per_input_mb["tsa_measured"] > 0
+    res = DECLARED.resources("sweep")
+    assert res["mem_mb"](None, 1, input=Input(1000.0)) == res["mem_mb"](None, 1)
+    assert res["runtime"](None, 1, input=Input(1000.0)) == res["runtime"](None, 1)
+
+
 @pytest.fixture(scope="module")
 def measured(ci_run, measured_run):
     runs = {"ci": jobresources.measured_in(ci_run / "results"),

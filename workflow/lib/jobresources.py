@@ -55,7 +55,10 @@ class Declared:
     ----------
     path : path-like
         The declarations file: ``overhead_mb``, ``headroom`` and ``rules: {rule: {threads,
-        mem_mb, runtime}}`` (memory in MB for the rule's script, run time in minutes).
+        mem_mb, runtime, mem_mb_per_input_mb?}}`` (memory in MB for the rule's script,
+        run time in minutes; ``mem_mb_per_input_mb`` [MB per MB] and
+        ``runtime_per_input_mb`` [min per MB], where a rule's memory and time grow with
+        its record, are added per MB of the job's input files).
     """
 
     def __init__(self, path: str | Path = DECLARATIONS) -> None:
@@ -65,11 +68,15 @@ class Declared:
         self.overhead_mb = int(data["overhead_mb"])
         self.headroom = {k: float(v) for k, v in data["headroom"].items()}
         self.rules: dict[str, dict[str, int]] = {}
+        self.per_input_mb: dict[str, float] = {}
+        self.runtime_per_input_mb: dict[str, float] = {}
         for rule, entry in data["rules"].items():
             missing = [k for k in KEYS if k not in entry]
             if missing:
                 raise ValueError(f"{path}: rule {rule} declares no {missing}")
             self.rules[rule] = {k: int(entry[k]) for k in KEYS}
+            self.per_input_mb[rule] = float(entry.get("mem_mb_per_input_mb", 0.0))
+            self.runtime_per_input_mb[rule] = float(entry.get("runtime_per_input_mb", 0.0))
 
     def _entry(self, rule: str) -> dict[str, int]:
         try:
@@ -82,20 +89,27 @@ class Declared:
         """Threads (cores) of one job of ``rule``."""
         return self._entry(rule)["threads"]
 
-    def mem_mb(self, rule: str, attempt: int = 1) -> int:
+    def mem_mb(self, rule: str, attempt: int = 1, input_mb: float = 0.0) -> int:
         """Memory of one job of ``rule`` on its ``attempt``-th try [MB]: the script's
-        share plus the Snakemake overhead, times the attempt (a retry asks for more)."""
-        return (self._entry(rule)["mem_mb"] + self.overhead_mb) * attempt
+        share (with its growth with the job's ``input_mb`` [MB] of input files, where
+        declared) plus the Snakemake overhead, times the attempt (a retry asks for more)."""
+        grows = math.ceil(self.per_input_mb[rule] * input_mb) if input_mb else 0
+        return (self._entry(rule)["mem_mb"] + grows + self.overhead_mb) * attempt
 
-    def runtime(self, rule: str, attempt: int = 1) -> int:
-        """Wall-time limit of one job of ``rule`` on its ``attempt``-th try [min]."""
-        return self._entry(rule)["runtime"] * attempt
+    def runtime(self, rule: str, attempt: int = 1, input_mb: float = 0.0) -> int:
+        """Wall-time limit of one job of ``rule`` on its ``attempt``-th try [min] (with its
+        growth with the job's ``input_mb`` [MB] of input files, where declared)."""
+        grows = math.ceil(self.runtime_per_input_mb[rule] * input_mb) if input_mb else 0
+        return (self._entry(rule)["runtime"] + grows) * attempt
 
     def resources(self, rule: str) -> dict[str, Callable[..., int]]:
-        """The ``resources:`` of ``rule``: memory and run time growing with the attempt."""
+        """The ``resources:`` of ``rule``: memory and run time growing with the attempt,
+        the memory also with the size of the job's input (Snakemake passes ``input``)."""
         self._entry(rule)   # an undeclared rule fails when the workflow is parsed
-        return {"mem_mb": lambda wildcards, attempt: self.mem_mb(rule, attempt),
-                "runtime": lambda wildcards, attempt: self.runtime(rule, attempt)}
+        return {"mem_mb": lambda wildcards, attempt, input=None: self.mem_mb(
+                    rule, attempt, input.size_mb if input is not None else 0.0),
+                "runtime": lambda wildcards, attempt, input=None: self.runtime(
+                    rule, attempt, input.size_mb if input is not None else 0.0)}
 
 
 def rule_of(benchmark: Path, root: Path) -> str:

@@ -11,8 +11,9 @@ from gbpipe.identify.orders import stabilization_orders
 snakemake = globals()["snakemake"]
 log = io.setup_log(snakemake.log[0])
 w, cfg, i, par = snakemake.wildcards, snakemake.params.cfg, snakemake.input, snakemake.params
-records = [io.read(p) for p in i.records]
-removed = [{"tsa": (io.read(p), None)} for p in i.tsa_records] or [{} for _ in records]
+# lazy: only the signals the pairings use are read (bounded memory on long records)
+records = [io.read(p, lazy=True) for p in i.records]
+removed = [{"tsa": (io.read(p, lazy=True), None)} for p in i.tsa_records] or [{} for _ in records]
 orders = provenance = None
 if i.modes:  # identify.order: stabilization, from rule modes_measured
     orders, provenance = stabilization_orders(

@@ -7,7 +7,9 @@ from gbpipe.identify import record_modes
 snakemake = globals()["snakemake"]
 log = io.setup_log(snakemake.log[0])
 w, cfg = snakemake.wildcards, snakemake.params.cfg
-ds = record_modes(cfg, io.read(snakemake.input.record), snakemake.params.orders,
+# lazy: only the pairings' and speeds' signals of the record are read (bounded memory on
+# long records)
+ds = record_modes(cfg, io.read(snakemake.input.record, lazy=True), snakemake.params.orders,
                   speeds=dict(snakemake.params.speeds))
 io.write(ds, snakemake.output.nc, sources=snakemake.input, stage="modes_measured",
          config={**cfg, "orders": snakemake.params.orders,

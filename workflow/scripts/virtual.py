@@ -11,7 +11,8 @@ snakemake = globals()["snakemake"]
 log = io.setup_log(snakemake.log[0])
 p, i, record = snakemake.params, snakemake.input, snakemake.wildcards.record
 model = merge(p.model, read_yaml(i.overlay)) if "overlay" in i.keys() else p.model
-ds = virtual_record(p.virtual, model, io.read(i.record), record, p.signals)
+# lazy: only the channels the estimator reads are loaded (bounded memory on long records)
+ds = virtual_record(p.virtual, model, io.read(i.record, lazy=True), record, p.signals)
 io.write(ds, snakemake.output.nc, sources=i, stage=snakemake.rule, config=dict(p),
          wildcards={"record": record},
          title=f"Virtual torque sensors of {record}: estimates, 95 % bands, load spectra")

@@ -26,13 +26,18 @@ carries no such guarantee. See docs/fit.md.
 
 from __future__ import annotations
 
+import logging
 from typing import Any
 
 import numpy as np
 from scipy.optimize import differential_evolution, least_squares
 from scipy.stats import qmc
 
+from gbpipe.progress import Progress
+
 __all__ = ["local_run", "start_runs", "evolution_run", "needs_evolution", "SEARCHES"]
+
+log = logging.getLogger(__name__)
 
 #: Global stages: the starts alone, the starts and the evolution unless the best start fits
 #: to round-off, or both always.
@@ -74,7 +79,13 @@ def local_run(problem: Any, theta: np.ndarray, active: np.ndarray, lo: np.ndarra
     theta, cost : ndarray, float
         The optimum and ``½ Σ r²`` there.
     """
-    sol = least_squares(lambda s: problem.residual(_embed(theta, s, active)),
+    progress = Progress(log, "fit: local least squares, model evaluations")
+
+    def residual(s: np.ndarray) -> np.ndarray:
+        progress(problem.n_evaluations)
+        return problem.residual(_embed(theta, s, active))
+
+    sol = least_squares(residual,
                         np.clip(theta[active], lo[active], hi[active]),
                         bounds=(lo[active], hi[active]), method="trf", x_scale=1.0,
                         xtol=1e-12, ftol=1e-12, gtol=1e-12, max_nfev=100 * int(active.sum()))
@@ -131,7 +142,11 @@ def start_runs(problem: Any, lo: np.ndarray, hi: np.ndarray, n_starts: int, n_gl
     if n_global > 0:
         lhs = qmc.LatinHypercube(d=lo.size, seed=seed).random(n_global)
         pts = np.vstack([pts, qmc.scale(lhs, lo, hi)])
-    cost = [_cost(problem, p) for p in pts]
+    progress = Progress(log, "fit: costs of the Latin-hypercube starts", len(pts))
+    cost = []
+    for p in pts:
+        cost.append(_cost(problem, p))
+        progress(len(cost))
     everything = np.ones(lo.size, dtype=bool)
     runs: list[tuple[np.ndarray, float]] = []
     for i in np.argsort(cost, kind="stable")[:max(n_starts, 1)]:
@@ -167,7 +182,13 @@ def evolution_run(problem: Any, lo: np.ndarray, hi: np.ndarray,
     -------
     theta, cost : ndarray, float
     """
+    progress = Progress(log, "fit: differential evolution, generations", _MAXITER)
+    generations = iter(range(1, _MAXITER + 2))
+
+    def generation(xk: np.ndarray, convergence: float) -> None:
+        progress(next(generations), f"population spread {convergence:.3g} of its stop")
+
     sol = differential_evolution(lambda th: _cost(problem, th), list(zip(lo, hi, strict=True)),
                                  seed=seed, popsize=_POPSIZE, tol=_TOL, maxiter=_MAXITER,
-                                 init="latinhypercube", polish=False)
+                                 init="latinhypercube", polish=False, callback=generation)
     return local_run(problem, sol.x, np.ones(lo.size, dtype=bool), lo, hi)

@@ -10,6 +10,7 @@ not, and where their passes stop contracting the residual of the best pass is ke
 
 from __future__ import annotations
 
+import logging
 import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -22,6 +23,9 @@ from gbpipe.harmonics.averaging import CyclePlan
 from gbpipe.harmonics.checks import as_count, as_order
 from gbpipe.harmonics.tacho import AngleMethod
 from gbpipe.harmonics.tsa import check_averaging, check_band_limit, checked_record, valid_mask
+from gbpipe.progress import Progress
+
+log = logging.getLogger(__name__)
 
 __all__ = ["residual_joint", "JointInfo"]
 
@@ -162,6 +166,7 @@ def residual_joint(
     converged = mode == "cascade"
     iterations = 0
     best: tuple[float, int, np.ndarray, list[np.ndarray]] | None = None
+    progress = Progress(log, f"joint TSA of {len(plans)} families on {x.size} samples", passes)
     for _ in range(passes):
         iterations += 1
         change = 0.0
@@ -174,6 +179,8 @@ def residual_joint(
             change += float(np.sum(d**2))
         rel = np.sqrt(change / x_power)
         history.append(rel)
+        progress(iterations, f"pass changed the residual by {rel:.2g} of the signal "
+                 f"(stops below {tol:g})")
         if mode == "joint" and iterations > 1 and rel < tol:
             converged = True
             break

@@ -33,9 +33,11 @@ from gbpipe.harmonics.families import (
 )
 from gbpipe.harmonics.joint import residual_joint
 from gbpipe.harmonics.metrics import removal_metrics
+from gbpipe.harmonics.pieces import block_margin, by_pieces
 from gbpipe.harmonics.spectra import order_spectrum_vs_rpm, power_spectrum_vs_rpm
 from gbpipe.harmonics.tsa import residual
 from gbpipe.io import longest_segment, mean_shaft_frequency, measured_signal
+from gbpipe.progress import Progress
 
 __all__ = ["waterfalls", "remove", "variant_metrics", "sweep_waterfalls", "tsa_variant",
            "split_residuals", "record_residuals", "watched_modes", "envelope_modes",
@@ -81,10 +83,8 @@ def waterfalls(x: np.ndarray, fs: float, pulse_times: np.ndarray, spec: Mapping[
 
     Parameters
     ----------
-    x : numpy.ndarray
-        Signal in ``units``.
-    fs : float
-        Sample rate [Hz].
+    x, fs : numpy.ndarray, float
+        Signal in ``units``; its sample rate [Hz].
     pulse_times : numpy.ndarray
         HSS tachometer pulse times [s].
     spec : mapping
@@ -105,6 +105,7 @@ def waterfalls(x: np.ndarray, fs: float, pulse_times: np.ndarray, spec: Mapping[
                                window=spec["window"], overlap=spec["overlap"],
                                rpm_bins=spec["rpm_bins"], max_frequency=spec["max_frequency"],
                                pulses_per_rev=pulses_per_rev, units=units, long_name=long_name)
+    log.info("%s: power spectrum vs rpm done; the order spectrum next", long_name)
     os_ = order_spectrum_vs_rpm(x, fs, pulse_times, resolution=spec["order_resolution"],
                                 max_order=spec["max_order"], window=spec["window"],
                                 overlap=spec["overlap"], rpm_bins=spec["rpm_bins"],
@@ -126,10 +127,9 @@ def remove(x: np.ndarray, fs: float, pulse_times: np.ndarray, cycles: Sequence[F
     ----------
     x, fs, pulse_times, pulses_per_rev
         As in :func:`gbpipe.harmonics.residual`.
-    cycles : sequence of Fraction
-        Cycle orders [HSS orders] (:func:`gbpipe.harmonics.cycle_orders`).
-    tsa_cfg : mapping
-        ``n_cycles``, ``unbiased`` and ``averaging`` (one variant's, or ``cfg["tsa"]``).
+    cycles, tsa_cfg : sequence of Fraction, mapping
+        Cycle orders [HSS orders] (:func:`gbpipe.harmonics.cycle_orders`); ``n_cycles``,
+        ``unbiased`` and ``averaging`` (one variant's, or ``cfg["tsa"]``).
     mode : {"joint", "cascade"}
         For several cycles (:func:`gbpipe.harmonics.residual_joint`).
     """
@@ -333,14 +333,20 @@ def split_residuals(record: xr.Dataset | Sequence[xr.Dataset], names: Sequence[s
     signals = [[measured_signal(r, name) for name in names] for r in records]
     xs = [np.column_stack([np.asarray(m.values, dtype=float) for m in sig]) for sig in signals]
     if lowest_order is not None:
+        # in place, channel by channel: an hour-long record holds three arrays of its
+        # channels at the peak (high part, low part, residual), not five
+        low = [np.zeros_like(x) for x in xs]
+        for x, lo in zip(xs, low, strict=True):
+            for j in range(x.shape[1] if sos is not None else 0):
+                lo[:, j] = signal.sosfiltfilt(sos, x[:, j])
+            x -= lo
         # the channels in one call: a method may share its work on the angle among them
         # (several records: one array of them, each record's channels as its own call
         # would have them)
-        low = [signal.sosfiltfilt(sos, x, axis=0) if sos is not None else np.zeros_like(x)
-               for x in xs]
-        high = [x - lo for x, lo in zip(xs, low, strict=True)]
-        removed = remove_fn(np.stack(high) if several else high[0], fs, pulses, ppr)
-        xs = [lo + r for lo, r in zip(low, removed if several else [removed], strict=True)]
+        removed = remove_fn(np.stack(xs) if several else xs[0], fs, pulses, ppr)
+        for lo, r in zip(low, removed if several else [removed], strict=True):
+            lo += r
+        xs = low
     out = []
     for r, sig, x in zip(records, signals, xs, strict=True):
         ds = xr.Dataset(coords={"time": ("time", r.time.values,
@@ -363,10 +369,9 @@ def record_residuals(record: xr.Dataset, names: Sequence[str],
     ----------
     record, names, keep_below
         As :func:`split_residuals` (``keep_below`` times the lowest removed cycle).
-    stages : sequence of mapping
-        Gearbox stages (for the exact cycle orders).
-    tsa_cfg : mapping
-        ``cfg["tsa"]``: ``tests`` (cycle names), ``n_cycles``, ``unbiased``.
+    stages, tsa_cfg : sequence of mapping, mapping
+        Gearbox stages (the exact cycle orders); ``cfg["tsa"]`` (``tests``: cycle names,
+        ``n_cycles``, ``unbiased``).
 
     Returns
     -------
@@ -377,13 +382,19 @@ def record_residuals(record: xr.Dataset, names: Sequence[str],
     n_cycles, unbiased = int(tsa_cfg["n_cycles"]), bool(tsa_cfg["unbiased"])
 
     def tsa(x: np.ndarray, fs: float, pulses: np.ndarray, ppr: int) -> np.ndarray:
-        return np.column_stack([residual_joint(x[:, j], fs, pulses, cycles, n_cycles, ppr,
-                                               unbiased=unbiased, outside="keep")
-                                for j in range(x.shape[1])])
+        def joint(piece: np.ndarray, p: np.ndarray, t0: float) -> np.ndarray:
+            return residual_joint(piece, fs, p, cycles, n_cycles, ppr, unbiased=unbiased,
+                                  outside="keep", t0=t0)
+        margin = block_margin(pulses, ppr, fs, cycles, n_cycles)  # x: one signal
+        return by_pieces(x[:, 0], fs, pulses, margin, joint)[:, None]
 
     lowest = min(float(c) for c in cycles) if cycles else None
-    with _on_record(record, ", ".join(names), "TSA"):
-        ds = split_residuals(record, names, tsa, lowest, keep_below,
-                             f"TSA removal of {', '.join(tsa_cfg['tests'])}")
+    what = f"TSA removal of {', '.join(tsa_cfg['tests'])}"
+    progress = Progress(log, f"TSA of {len(names)} signals", len(names))
+    with _on_record(record, ", ".join(names), "TSA"):  # one at a time: a long record's memory
+        ds = split_residuals(record, names[:1], tsa, lowest, keep_below, what)
+        for k, name in enumerate(names[1:], 2):
+            ds[name] = split_residuals(record, [name], tsa, lowest, keep_below, what)[name]
+            progress(k, name)
     ds.attrs.update(removed_cycles=",".join(tsa_cfg["tests"]), n_cycles=n_cycles)
     return ds

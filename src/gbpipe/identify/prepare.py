@@ -239,12 +239,11 @@ class ConditionedRecord:
 
         Raises what :func:`version_signals` and :func:`condition` raise.
         """
-        missing = [n for n in dict.fromkeys(names) if (version, n) not in self._columns]
-        if missing:
-            # one decimation for every new signal of this version
-            x = condition(version_signals(self.ds, missing, version,
-                                          self.removed.get(version)),
-                          self.fs, self.settle, self.fs_out, self.cutoff)
-            for k, n in enumerate(missing):
-                self._columns[version, n] = x[:, k]
+        for n in dict.fromkeys(names):
+            if (version, n) not in self._columns:
+                # one signal at a time: of an hour-long record one full-rate signal is held
+                # (the decimation is per channel, so the column is the same as in a stack)
+                x = condition(version_signals(self.ds, [n], version, self.removed.get(version)),
+                              self.fs, self.settle, self.fs_out, self.cutoff)
+                self._columns[version, n] = x[:, 0]
         return np.column_stack([self._columns[version, n] for n in names])

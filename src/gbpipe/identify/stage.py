@@ -37,6 +37,7 @@ from gbpipe.identify.reference import (
 )
 from gbpipe.identify.status import assess, reference_growth_rate
 from gbpipe.io import longest_segment
+from gbpipe.progress import Progress
 
 __all__ = ["identify_methods", "identify_record", "record_label"]
 
@@ -213,7 +214,20 @@ def identify_methods(cfg: Mapping[str, Any], record: xr.Dataset | Sequence[xr.Da
 
     # a bench record's order lines, where its nonparametric reference judges no model
     bands = _line_bands(records, line_orders, s) if truth is None else []
-    rows = []  # (pairing, version, data, reference): what every method fits and is scored on
+    def row_data(p: Mapping[str, Any], version: str) -> tuple:
+        """(u, y, held-out u, held-out y) of a pairing and version, from the conditioned
+        columns (each conditioned once): copies, made per row (of an hour-long record the
+        rows' copies together would hold 8 pairing x version data sets)."""
+        if sources:  # fit on the rest of every record, in pieces (multi-experiment)
+            u, uv = bench_data(sources, p["inputs"], version, min_len)
+            y, yv = bench_data(sources, p["outputs"], version, min_len)
+            return u, y, uv, yv
+        return (conditioned[0](p["inputs"], version), conditioned[0](p["outputs"], version),
+                [val(p["inputs"], version)], [val(p["outputs"], version)])
+
+    rows = []  # (pairing, version, reference): what every method fits and is scored on
+    progress = Progress(log, "conditioning and nonparametric FRF of every pairing x version",
+                        len(s["pairings"]) * len(s["versions"]))
     for p in s["pairings"]:
         ref_truth = truth_reference(truth, p, records[0]) if truth is not None else None
         # unusable signals are refused here, before any fit (checks.py)
@@ -230,25 +244,26 @@ def identify_methods(cfg: Mapping[str, Any], record: xr.Dataset | Sequence[xr.Da
             r = (bench_data(sources, p["reference"], "raw", min_len)[0] if sources
                  else conditioned[0](p["reference"], "raw"))
         for version in s["versions"]:
-            if sources:  # fit on the rest of every record, in pieces (multi-experiment)
-                u, uv = bench_data(sources, p["inputs"], version, min_len)
-                y, yv = bench_data(sources, p["outputs"], version, min_len)
-            else:
-                u, y = conditioned[0](p["inputs"], version), conditioned[0](p["outputs"], version)
-                uv, yv = [val(p["inputs"], version)], [val(p["outputs"], version)]
+            u, y, _, _ = data = row_data(p, version)
             ref = ref_truth or _off_lines(nonparametric_reference(u, y, fs_id, s, r), bands)
-            rows.append((p, version, (u, y, uv, yv), ref))
+            rows.append((p, version, ref))
+            progress(len(rows), f"{p['name']}/{version}")
+            del u, y, data  # made again for the fits: one row's copies at a time
 
     # every method on one row before the next row: MOESP and N4SID of one data set share its
     # window products (gbpipe.sysid remembers them: gbpipe.memo)
     results: dict[str, list[dict[str, Any]]] = {method: [] for method in methods}
-    for p, version, data, ref in rows:
+    progress = Progress(log, f"{', '.join(methods)} on every pairing x version",
+                        len(rows) * len(methods))
+    for p, version, ref in rows:
+        data = row_data(p, version)
         order, source = row_order(s, p["name"], orders, order_source)
         s_row = {**s, "order": order, "order_source": source,
                  **order_windows(s, order, len(p["outputs"]))}
         for method in methods:
             res = _identify_row(method, p, version, data, ref, dt, s_row)
             results[method].append({**res, "order_source": source})
+            progress(sum(map(len, results.values())), f"{method} {p['name']}/{version}")
     return {method: _method_dataset(method, results[method], dt, s, records, validation, notes)
             for method in methods}
 

@@ -10,6 +10,8 @@ import resource
 import sys
 from pathlib import Path
 
+from gbpipe.io.heartbeat import Heartbeat
+
 __all__ = ["PEAK_LINE", "job_resources", "setup_log"]
 
 #: The last line of every job log: the job's own peak resident memory [MB] and CPU time
@@ -80,4 +82,12 @@ def setup_log(logfile: str | None = None, name: str = "gbpipe") -> logging.Logge
     if logfile:
         # registered after logging's own exit handler, so it runs before the files close
         atexit.register(_log_resources, logger)
+        # the log's first line marks the job's start (its imports done); from then on a
+        # line at least every few seconds: the stage's own, or the heartbeat's saying
+        # where the job is (a long step on an hour-long record)
+        beat = Heartbeat(logger)
+        for lg in (logger, warned):
+            lg.addHandler(beat)
+        logger.info("job started: %s", Path(logfile).stem)
+        beat.start()
     return logger

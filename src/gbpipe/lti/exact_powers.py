@@ -75,9 +75,15 @@ def _magnitude(raw: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return sign, _carry(v * sign)
 
 
-def _product(x: _Fixed, y: _Fixed) -> _Fixed:
-    """Exact product of two fixed-point matrices, truncated toward zero to _BITS bits
-    (relative to the largest entry of the product)."""
+def _product(x: _Fixed, y: tuple[np.ndarray, int | np.ndarray], terms: int = 1
+             ) -> tuple[np.ndarray, int | np.ndarray]:
+    """Exact product of two fixed-point matrices, truncated toward zero to _BITS bits.
+
+    ``y``'s columns may be ``terms`` side-by-side matrices of equal width, each with its
+    own scale (``y[1]`` of shape ``(terms,)``): the product is exact column by column, and
+    each term's block is truncated relative to its own largest entry (a term far smaller
+    than its neighbours keeps its digits). One scale (int) when ``terms`` is 1.
+    """
     (xl, xs), (yl, ys) = x, y
     k, n, m = xl.shape[-1], xl.shape[1], yl.shape[-1]
     if k >= _MAX_INNER:
@@ -91,20 +97,24 @@ def _product(x: _Fixed, y: _Fixed) -> _Fixed:
     for a in range(_LIMBS):
         raw[a:a + _LIMBS] += pairs[a].transpose(1, 0, 2)
     sign, mag = _magnitude(raw)
-    # bits of the largest entry: its top limb's position plus that limb's bit length
+    mag = mag.reshape(len(mag), n, terms, m // terms)
+    # bits of each term's largest entry: its top limb's position plus that limb's length
     nonzero = mag != 0
-    if not nonzero.any():
-        return np.zeros((_LIMBS, n, m), dtype=np.int64), xs + ys
     top = len(mag) - 1 - np.argmax(nonzero[::-1], axis=0)
     top_limb = np.take_along_axis(mag, top[None], axis=0)[0]
-    bits = int(np.max(np.where(nonzero.any(axis=0),
-                               _W * top + np.frexp(top_limb.astype(float))[1], 0)))
-    drop = max(bits - _BITS, 0)
-    q, r = divmod(drop, _W)
-    # |p| 2^-drop, truncated: whole limbs dropped, then r bits shifted across limbs
-    mag = np.concatenate([mag[q:], np.zeros((q + 1, n, m), dtype=np.int64)])
+    bits = np.max(np.where(nonzero.any(axis=0),
+                           _W * top + np.frexp(top_limb.astype(float))[1], 0), axis=(0, 2))
+    drop = np.maximum(bits - _BITS, 0)                     # (terms,)
+    q, r = (v[None, None, :, None] for v in np.divmod(drop, _W))
+    # |p| 2^-drop, truncated: whole limbs dropped (q), then r bits shifted across limbs
+    mag = np.concatenate([mag, np.zeros((int(q.max()) + 1, *mag.shape[1:]), np.int64)])
+    at = np.broadcast_to(q + np.arange(_LIMBS + 1)[:, None, None, None],
+                         (_LIMBS + 1, *mag.shape[1:]))
+    mag = np.take_along_axis(mag, at, axis=0)
     shifted = (mag[:-1] >> r) | ((mag[1:] & ((1 << r) - 1)) << (_W - r))
-    return shifted[:_LIMBS] * sign, xs + ys - drop
+    scale = xs + np.asarray(ys) - drop
+    return (shifted.reshape(_LIMBS, n, m) * sign,
+            int(scale[0]) if terms == 1 and np.ndim(ys) == 0 else scale)
 
 
 def _to_longdouble(limbs: np.ndarray, s: int | np.ndarray) -> np.ndarray:
@@ -154,6 +164,14 @@ def exact_power(a: np.ndarray, k: int) -> np.ndarray:
 def exact_krylov(a: np.ndarray, b: np.ndarray, count: int) -> np.ndarray:
     """``b, a b, .., a^count b`` exact, each rounded once to ``np.longdouble``.
 
+    By doubling: with ``[b .. a^(j-1) b]`` known, one product by ``a^j`` (exact, by
+    squaring) gives ``[a^j b .. a^(2j-1) b]``: about 2 log2(count) exact products where
+    the chain ``a^(k+1) b = a (a^k b)`` takes ``count`` (whose per-product overhead
+    dominated the first simulation of a 12-state system: 29 ms of its 80 ms at 2e5
+    samples, benchmarks/simulate.py). Each term keeps its own scale and is truncated
+    relative to its own largest entry, as in the chain: a term decayed far below the
+    others (a stable ``a``, high powers) is as exact as the largest.
+
     Parameters
     ----------
     a : ndarray, shape (n, n)
@@ -166,15 +184,25 @@ def exact_krylov(a: np.ndarray, b: np.ndarray, count: int) -> np.ndarray:
     Returns
     -------
     ndarray of np.longdouble, shape (count + 1, n, m)
-        The products (n^2 m limb products each, not the n^3 of a power).
+        The products.
     """
-    a_fixed, term = _to_fixed(a), _to_fixed(b)
-    limbs = np.empty((_LIMBS, count + 1, *np.shape(b)), dtype=np.int64)
-    scales = np.empty((count + 1, 1, 1), dtype=np.int64)
-    limbs[:, 0], scales[0] = term
-    for k in range(1, count + 1):
-        term = _product(a_fixed, term)
-        limbs[:, k], scales[k] = term
-    out = _to_longdouble(limbs, scales)
+    n, m = np.shape(b)
+    power = _to_fixed(a)
+    limbs, s = _to_fixed(b)
+    blocks = [(limbs[:, None], np.full(1, s))]   # (limbs (L, terms, n, m), scales)
+    done = 1
+    while done <= count:
+        if done > 1:
+            power = _product(power, power)        # a^done
+        last = np.concatenate([blk[0] for blk in blocks], axis=1)
+        # [b ... a^(done-1) b] side by side, each at its own scale: one product by a^done
+        side = last.transpose(0, 2, 1, 3).reshape(_LIMBS, n, done * m)
+        scales = np.concatenate([blk[1] for blk in blocks])
+        prod, ps = _product(power, (side, scales), terms=done)
+        blocks.append((prod.reshape(_LIMBS, n, done, m).transpose(0, 2, 1, 3), ps))
+        done *= 2
+    limbs = np.concatenate([blk[0] for blk in blocks], axis=1)[:, :count + 1]
+    scales = np.concatenate([blk[1] for blk in blocks])[:count + 1]
+    out = _to_longdouble(limbs, scales[:, None, None])
     out[0] = np.asarray(b, dtype=np.longdouble)  # b itself: exact, not truncated
     return out

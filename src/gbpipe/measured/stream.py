@@ -14,6 +14,7 @@ output block is computed from just the input samples its filters need
 
 from __future__ import annotations
 
+import logging
 import os
 from collections.abc import Mapping
 from contextlib import ExitStack
@@ -35,8 +36,11 @@ from gbpipe.measured.resample import BlockResampler
 from gbpipe.measured.spec import RecordSpec, SignalSpec
 from gbpipe.measured.timebase import overlap, scan_clock, unroll
 from gbpipe.measured.writer import write_blocks
+from gbpipe.progress import Progress
 
 __all__ = ["streamable", "write_record", "StreamPiece", "OUT_BLOCK"]
+
+log = logging.getLogger(__name__)
 
 #: record samples computed and written at a time, per variable (8 MB of float64)
 OUT_BLOCK = 1 << 20
@@ -210,7 +214,8 @@ def _fill(nc: netCDF4.Dataset, rec: RecordSpec, plan: Mapping[str, list[StreamPi
             if "segment" in nc.variables:
                 nc["segment"][filled + a:filled + b] = np.full(b - a, k)
         filled += n
-    for sname, plist in plan.items():
+    progress = Progress(log, f"record '{rec.name}': signals written", len(plan))
+    for done, (sname, plist) in enumerate(plan.items()):
         angle = rec.signals[sname].quantity == "angle"
         filled = 0
         windows = [(p.t0, p.end) for p in plist]
@@ -221,4 +226,5 @@ def _fill(nc: netCDF4.Dataset, rec: RecordSpec, plan: Mapping[str, list[StreamPi
             values = BlockResampler(read, piece.size, piece.t0, piece.dt, t_a, fs, n)
             for a, b in blocks(n, OUT_BLOCK):
                 nc[sname][filled + a:filled + b] = values(a, b)
+                progress(done, f"{sname}: {filled + b} samples")
             filled += n

@@ -15,9 +15,9 @@ virtual_record(settings, model_cfg, record, name), table_rows(ds, record)
 
 from gbpipe.virtual.model import EstimationModel, estimation_model, target_names
 from gbpipe.virtual.noise import NoiseFit, fit_noise, neg2_loglik
-from gbpipe.virtual.smoother import Z95, Estimate, Gains, NoiseModel, gains, smooth
+from gbpipe.virtual.smoother import BLOCK, Z95, Estimate, Gains, NoiseModel, gains, smooth
 from gbpipe.virtual.stage import TABLE_COLUMNS, table_rows, virtual_record
 
 __all__ = ["EstimationModel", "estimation_model", "target_names", "NoiseFit", "fit_noise",
-           "neg2_loglik", "NoiseModel", "Gains", "Estimate", "gains", "smooth", "Z95",
+           "neg2_loglik", "NoiseModel", "Gains", "Estimate", "gains", "smooth", "BLOCK", "Z95",
            "virtual_record", "table_rows", "TABLE_COLUMNS"]

@@ -9,7 +9,9 @@ gains unchanged and is concentrated out of the Gaussian likelihood (its estimate
 ``Σ eᵀS⁻¹e / (N p)`` is applied at the end), so the first channel's level is held and the
 others are searched (``scipy.optimize.minimize``, L-BFGS-B, on a log scale ±12 around a
 start from the data: each signal's sample-to-sample difference, ``sd(Δx)/√2``, an upper
-bound of its white noise). The offsets and the initial state are estimated inside every
+bound of its white noise), and from process noise (load walks and model error) two decades
+below and above it, the best of the three kept: the likelihood has more than one optimum
+in those levels. The offsets and the initial state are estimated inside every
 evaluation (generalised least squares, :func:`gbpipe.virtual.smoother.innovations`), so
 they never pass for noise. The window of the record the likelihood reads is the caller's
 (``virtual.noise.window``), reported with the result.
@@ -30,6 +32,10 @@ __all__ = ["NoiseFit", "fit_noise", "neg2_loglik"]
 
 #: Search range of each log parameter around its start [-] (e¹² ≈ 1.6e5).
 _LOG_RANGE = 12.0
+#: Decades of the process-noise levels (load walks and model error) between the starts of
+#: the likelihood search [-]: within the search range, far enough apart to start in
+#: another basin (:func:`fit_noise`).
+_PROCESS_DECADES = 2.0
 
 
 @dataclass
@@ -68,7 +74,7 @@ def neg2_loglik(model: EstimationModel, noise: NoiseModel, y: np.ndarray, u: np.
     """−2 log-likelihood per sample of ``(y, u)`` with the scale concentrated out, and
     that scale [-]."""
     g = gains(model, noise)
-    _, _, _, rss = innovations(model, g, y, u)
+    _, _, rss = innovations(model, g, y, u)
     N, p = y.shape
     scale = rss / (N * p)
     return float(np.linalg.slogdet(g.S)[1] + p * np.log(scale) + p), scale
@@ -115,10 +121,25 @@ def fit_noise(model: EstimationModel, y: np.ndarray, u: np.ndarray) -> NoiseFit:
     if not np.isfinite(start) or start >= 1e30:
         raise DataError("virtual", "the Kalman filter has no finite likelihood at the "
                         "start noise levels: check the sensors and motor torques")
-    # ftol: a change of 1e-7 in −2 log L per sample is far below what moves an estimate
-    res = optimize.minimize(cost, v0[1:], method="L-BFGS-B",
-                            bounds=[(a - _LOG_RANGE, a + _LOG_RANGE) for a in v0[1:]],
-                            options={"ftol": 1e-7})
+    # The likelihood is not unimodal in the process-noise levels: a record's loads and
+    # model error can be explained by a slow estimator (model error near zero, a slowest
+    # pole of tens of seconds) or a faster one, and which optimum L-BFGS-B reaches from a
+    # single start turned on the last bit of the record (the measured example simulated
+    # with one or several BLAS threads). So the search starts from the data's levels and
+    # from process noise _PROCESS_DECADES decades below and above them, and keeps the best.
+    process = np.zeros(v0.size - 1)
+    process[-(len(model.load_states) + 1):] = 1.0
+    res = None
+    for decades in (0.0, -_PROCESS_DECADES, _PROCESS_DECADES):
+        x0 = v0[1:] + decades * np.log(10.0) * process
+        if cost(x0) >= 1e30:
+            continue
+        # ftol: a change of 1e-7 in −2 log L per sample is far below what moves an estimate
+        trial = optimize.minimize(cost, x0, method="L-BFGS-B",
+                                  bounds=[(a - _LOG_RANGE, a + _LOG_RANGE) for a in v0[1:]],
+                                  options={"ftol": 1e-7})
+        if res is None or trial.fun < res.fun:
+            res = trial
     v = np.concatenate([v0[:1], res.x])
     value, scale = neg2_loglik(model, _split(model, v), y, u)
     # the concentrated scale: every covariance times it, every sd times its root

@@ -5,7 +5,10 @@ The gains come from the discrete algebraic Riccati equation
 (``scipy.linalg.solve_discrete_are``: the predicted covariance ``P``); the filter and the
 smoother are then linear time-invariant recursions, run with the exact block simulator
 :func:`gbpipe.lti.dlsim` (forward: the one-step predictor; backward: the RTS recursion
-``x̂s[k] = x̂f[k] + G (x̂s[k+1] − x̂p[k+1])``, ``G = P_f Aᵀ P⁻¹``). The smoothed covariance
+``x̂s[k] = x̂f[k] + G (x̂s[k+1] − x̂p[k+1])``, ``G = P_f Aᵀ P⁻¹``), in blocks of
+:data:`BLOCK` samples: the forward pass keeps each block's start state, the backward pass
+computes each block's drive again from it (1.5 times the forward work, the memory of a
+block instead of the record's states: hour-long records). The smoothed covariance
 is the steady state of the RTS covariance recursion, a discrete Lyapunov equation
 (``scipy.linalg.solve_discrete_lyapunov``): ``Ps = G Ps Gᵀ + P_f − G P Gᵀ``.
 
@@ -34,7 +37,8 @@ from gbpipe.errors import DataError
 from gbpipe.lti import dlsim
 from gbpipe.virtual.model import EstimationModel
 
-__all__ = ["NoiseModel", "Gains", "Estimate", "gains", "innovations", "smooth", "Z95"]
+__all__ = ["BLOCK", "NoiseModel", "Gains", "Estimate", "gains", "innovations", "smooth",
+           "Z95"]
 
 #: Two-sided 95 % normal quantile.
 Z95 = 1.959963984540054
@@ -47,6 +51,10 @@ _RCOND = 1e-8
 #: transient ends: the band's half width then within 2.5 % of the true one (a 95 % band
 #: holds at least 94.4 %); the samples between are the steady part (``Estimate.steady``).
 _TRANSIENT = 0.05
+#: Samples [-] per block of the filter and smoother passes (:func:`smooth`): a block's
+#: drive and states, (n + r) x 8 B per sample, some 20 MB at 2^16 samples and 30 states;
+#: the recursions' own cost per block (lifted matrices, remembered) is paid once.
+BLOCK = 1 << 16
 #: Points [-] at which a transient's decay is evaluated at most (every sample of a record
 #: that short, else every ``ceil(N / _GRID)``-th: a transient ends on that grid).
 _GRID = 4096
@@ -123,8 +131,6 @@ class Estimate:
         Standard deviation (r + n_loads,) of each estimate (steady state) [its unit].
     offsets, offsets_sd : ndarray
         Estimated offsets and their standard deviations [N·m].
-    innovation : ndarray
-        Innovations (N, p) with the offsets and initial state removed.
     neg2_loglik : float
         −2 log-likelihood of the record, the noise scale concentrated out [-].
     scale : float
@@ -142,7 +148,6 @@ class Estimate:
     sd: np.ndarray
     offsets: np.ndarray
     offsets_sd: np.ndarray
-    innovation: np.ndarray
     neg2_loglik: float
     scale: float
     steady: np.ndarray
@@ -191,8 +196,8 @@ def _free_response(C: np.ndarray, Phi: np.ndarray, n_samples: int) -> np.ndarray
 
 
 def innovations(model: EstimationModel, g: Gains, y: np.ndarray, u: np.ndarray
-                ) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
-    """Innovations and the GLS estimate of ``θ = [x0, b]``.
+                ) -> tuple[np.ndarray, np.ndarray, float]:
+    """The GLS estimate of ``θ = [x0, b]`` from the innovations, and what is left.
 
     Parameters
     ----------
@@ -206,18 +211,18 @@ def innovations(model: EstimationModel, g: Gains, y: np.ndarray, u: np.ndarray
     theta : ndarray (n + nb,)
     theta_cov : ndarray (n + nb, n + nb)
         Covariance of ``θ`` (pseudo-inverse of the normal matrix; unit noise scale).
-    e : ndarray (N, p)
-        Innovations with ``θ`` removed.
     rss : float
-        ``Σ eᵀ S⁻¹ e`` [-].
+        ``Σ eᵀ S⁻¹ e`` [-] of the innovations ``e`` with ``θ`` removed.
     """
     A, C, K, Phi = model.A, model.C, g.K, g.Phi
     n, nb, (N, p) = A.shape[0], model.Gx.shape[1], y.shape
     AK = A @ K
-    e0 = dlsim(Phi, np.hstack([AK, model.B - AK @ model.D]), -C,
-               np.hstack([np.eye(p), -model.D]), np.hstack([y, u]))
     W = linalg.inv(linalg.cholesky(g.S, lower=True))
-    we = e0 @ W.T
+    # the whitened innovations, one (N, p) array worked on in place (an hour at 5 kHz is
+    # 18e6 samples: each copy of it ~1 GB)
+    we = dlsim(Phi, np.hstack([AK, model.B - AK @ model.D]), -C,
+               np.hstack([np.eye(p), -model.D]), np.hstack([y, u]))
+    we @= W.T
     O = _free_response(C, Phi, N)
     L = O.shape[0]
     Gamma = model.Gx - AK @ model.Gy
@@ -237,16 +242,14 @@ def innovations(model: EstimationModel, g: Gains, y: np.ndarray, u: np.ndarray
     scale = np.concatenate([np.sqrt(np.diag(g.P)), 1 / np.sqrt(np.diag(normal)[n:])])
     cov = linalg.pinvh(normal * np.outer(scale, scale), rtol=_RCOND) * np.outer(scale, scale)
     theta = cov @ rhs
-    wres = we.copy()
-    wres[:L] -= Rt @ theta
+    we[:L] -= Rt @ theta
     if L < N and nb:
-        wres[L:] -= rb_inf @ theta[n:]
-    e = wres @ linalg.inv(W).T
-    return theta, cov, e, float(np.sum(wres ** 2))
+        we[L:] -= rb_inf @ theta[n:]
+    return theta, cov, float(np.einsum("ij,ij->", we, we))
 
 
-def smooth(model: EstimationModel, noise: NoiseModel, y: np.ndarray, u: np.ndarray
-           ) -> Estimate:
+def smooth(model: EstimationModel, noise: NoiseModel, y: np.ndarray, u: np.ndarray, *,
+           block: int = BLOCK) -> Estimate:
     """Smoothed targets and loads of a record, with their standard deviations.
 
     Parameters
@@ -257,9 +260,12 @@ def smooth(model: EstimationModel, noise: NoiseModel, y: np.ndarray, u: np.ndarr
         Measured channels in ``model.measured`` order [their units].
     u : ndarray (N, m)
         Motor torques in ``model.inputs`` order [N·m].
+    block : int
+        Samples per block of the filter and smoother passes [-] (the memory they hold;
+        the result is the same for any block, to round-off).
     """
     g = gains(model, noise)
-    theta, cov, e, rss = innovations(model, g, y, u)
+    theta, cov, rss = innovations(model, g, y, u)
     A, C, K = model.A, model.C, g.K
     n, nb, (N, p) = A.shape[0], model.Gx.shape[1], y.shape
     x0, b = theta[:n], theta[n:]
@@ -267,21 +273,39 @@ def smooth(model: EstimationModel, noise: NoiseModel, y: np.ndarray, u: np.ndarr
     # forward: the filtered state x̂f = Cf x̂p + Df w (x0 and the offsets known), output
     # straight as the smoother's drive d[k] = x̂f[k] − G x̂p[k+1], x̂p[k+1] = A x̂f[k] + B u[k]
     # + Gx b: d = (I − G A) x̂f − G B u − G Gx b (one product per sample, not three)
-    w = np.hstack([y, u, np.ones((N, 1))])
     Bp = np.hstack([A @ K, model.B - A @ K @ model.D, (Gamma @ b)[:, None]])
     Cf = np.eye(n) - K @ C
     Df = np.hstack([K, -K @ model.D, -(K @ model.Gy @ b)[:, None]])
     IGA = np.eye(n) - g.G @ A
     Dd = IGA @ Df - np.hstack([np.zeros((n, p)), g.G @ model.B,
                                (g.G @ model.Gx @ b)[:, None]])
-    d, xp_last = dlsim(g.Phi, Bp, IGA @ Cf, Dd, w[:-1], x0, return_state=True)
-    xf_last = Cf @ xp_last + Df @ w[-1]
-    # backward: r[j] = x̂s[N−1−j], r[j+1] = G r[j] + d[N−2−j]
+
+    def drive(k0: int, k1: int, xp: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """d[k0:k1] from the predicted state at k0, and the predicted state at k1."""
+        w = np.hstack([y[k0:k1], u[k0:k1], np.ones((k1 - k0, 1))])
+        return dlsim(g.Phi, Bp, IGA @ Cf, Dd, w, xp, return_state=True)
+
+    # the filter in blocks, keeping the predicted state at each block's start only; the
+    # smoother then runs backward block by block, each block's drive computed again from
+    # its start state: the memory of one block, not of the record's states (issue 47)
+    starts = list(range(0, N - 1, block))
+    xp_start, xp = [], x0
+    for k0 in starts:
+        xp_start.append(xp)
+        xp = drive(k0, min(k0 + block, N - 1), xp)[1]
+    xs = Cf @ xp + Df @ np.concatenate([y[-1], u[-1], [1.0]])   # x̂s[N−1] = x̂f[N−1]
     out = np.vstack([model.Cz, np.eye(n)[model.load_states]])
-    back = np.vstack([d[::-1], np.zeros((1, n))])
-    zs = dlsim(g.G, np.eye(n), out, np.zeros((len(out), n)), back, xf_last)[::-1]
+    zs = np.empty((N, len(out)))
+    for k0, xp in zip(starts[::-1], xp_start[::-1], strict=True):
+        k1 = min(k0 + block, N - 1)
+        d = drive(k0, k1, xp)[0]
+        # r[j] = x̂s[k1−j], r[j+1] = G r[j] + d[k1−1−j]: outputs x̂s[k1] .. x̂s[k0+1]
+        zk, xs = dlsim(g.G, np.eye(n), out, np.zeros((len(out), n)), d[::-1], xs,
+                       return_state=True)
+        zs[k0 + 1:k1 + 1] = zk[::-1]
+    zs[0] = out @ xs
     dz = np.vstack([model.Dz, np.zeros((len(model.load_states), model.Dz.shape[1]))])
-    z = zs + u @ dz.T
+    zs += u @ dz.T   # in place: an (N, r) array less at the peak
     var = np.einsum("ij,jk,ik->i", out, g.Ps, out) + (dz * noise.input_sd) ** 2 @ np.ones(
         dz.shape[1])
     scale = rss / (N * p)
@@ -301,7 +325,7 @@ def smooth(model: EstimationModel, noise: NoiseModel, y: np.ndarray, u: np.ndarr
     start = _transient(out, g.Phi, cov[:n, :n], tol, N)
     end = _transient(out, g.G, g.Pf - g.Ps, tol, N)
     steady = (k >= start) & (N - 1 - k >= end)
-    return Estimate(z, np.sqrt(var), b, np.sqrt(np.diag(cov_b)), e, float(neg2),
+    return Estimate(zs, np.sqrt(var), b, np.sqrt(np.diag(cov_b)), float(neg2),
                     float(scale), steady)
 
 

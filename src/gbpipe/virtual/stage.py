@@ -136,6 +136,7 @@ def virtual_record(settings: Mapping[str, Any], model_cfg: Mapping[str, Any],
                        nf.noise.load_rate, nf.noise.model_sd)
     holdout_sd = nf.noise.sensor_sd[len(sensors):]
     est = smooth(model, noise, y, u)
+    del y, u   # the record's channels, no longer needed: their memory for the output's
     labels = model.targets + [model.states[i] for i in model.load_states]
     # a target's unit: its sensor's or state's; shaft torques and loads are N m
     units = [model.units.get(s, "N m") for s in labels]
@@ -164,11 +165,14 @@ def virtual_record(settings: Mapping[str, Any], model_cfg: Mapping[str, Any],
     }
     # the held-out sensors against their estimates, on the steady part (the record holds
     # them: the noise fit above read them)
-    rows, keep = [], est.steady
-    if keep.sum() < 2:
+    rows, steady = [], np.flatnonzero(est.steady)
+    if steady.size < 2:
         raise DataError(name, f"the record ({len(t)} samples) is shorter than the "
                         "estimator's start and end transients: no steady part to compare or "
                         "count; give a longer record")
+    # the steady part is one stretch (between the start and end transients): a slice,
+    # whose selections are views, not copies of the record's length
+    keep = slice(int(steady[0]), int(steady[-1]) + 1)
     measured_h = _columns(record, holdout, "virtual.holdout") if holdout else None
     for i, h in enumerate(holdout):
         j = labels.index(h)
