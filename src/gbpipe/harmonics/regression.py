@@ -47,6 +47,9 @@ __all__ = ["AmplitudeBasis", "family_groups", "residual_regression"]
 
 #: Tikhonov weight of each modal carrier's coefficient, relative to the carrier's power
 BORDER_RIDGE = 1e-6
+#: Bytes of modal-carrier columns kept from the accumulation for the subtraction pass
+#: (the carriers' exponentials and recursions are about half of a regression's time)
+BORDER_CACHE_BYTES = 128 * 2**20
 
 
 class AmplitudeBasis:
@@ -284,12 +287,11 @@ def residual_regression(x: np.ndarray, fs: float, pulse_times: np.ndarray,
     if isinstance(knot_spacing, Mapping):
         out = np.asarray(x, dtype=float)
         for spacing, group in family_groups(families, knot_spacing):
-            out = residual_regression(out, fs, pulse_times, group, pulses_per_rev,
-                                      basis=basis, knot_spacing=spacing, degree=degree,
-                                      ridge=ridge, modes=modes, mode_reach=mode_reach,
-                                      modal_families=modal_families, twist=twist,
-                                      twist_families=twist_families,
-                                      twist_phase=twist_phase, block=block, t0=t0, method=method)
+            out = residual_regression(
+                out, fs, pulse_times, group, pulses_per_rev, basis=basis, knot_spacing=spacing,
+                degree=degree, ridge=ridge, modes=modes, mode_reach=mode_reach,
+                modal_families=modal_families, twist=twist, twist_families=twist_families,
+                twist_phase=twist_phase, block=block, t0=t0, method=method)
         return out
     xa = np.asarray(x, dtype=float)
     if xa.ndim not in (1, 2, 3):
@@ -299,12 +301,11 @@ def residual_regression(x: np.ndarray, fs: float, pulse_times: np.ndarray,
     if xa.ndim > 1:  # every channel checked; the first one carries the angle map's checks
         for k, j in np.ndindex(xs.shape[0], xs.shape[2]):
             as_signal(xs[k, :, j], f"x[{k}, :, {j}]" if xa.ndim == 3 else f"x[:, {j}]")
-    rec, fam, orders = removal_inputs(xs[0, :, 0], fs, pulse_times, families,
-                                      pulses_per_rev, t0, method)
-    knot_spacing = as_positive(knot_spacing, "knot_spacing", "s")
-    ridge = as_positive(ridge, "ridge", "relative units")
-    degree = as_count(degree, "degree")
-    block = as_count(block, "block", 16)
+    rec, fam, orders = removal_inputs(xs[0, :, 0], fs, pulse_times, families, pulses_per_rev,
+                                      t0, method)
+    knot_spacing, ridge = (as_positive(knot_spacing, "knot_spacing", "s"),
+                           as_positive(ridge, "ridge", "relative units"))
+    degree, block = as_count(degree, "degree"), as_count(block, "block", 16)
     times = rec.times
     amp = AmplitudeBasis(float(times[0]), float(times[-1]), basis, knot_spacing, degree)
     # all channels share the regressors (one time base, one angle): the design, the normal
@@ -319,35 +320,30 @@ def residual_regression(x: np.ndarray, fs: float, pulse_times: np.ndarray,
         angles.append(rec.theta + tw)
         # the phase change the envelope cannot follow: fitting such an order on the
         # tachometer angle alone leaves about that share of its line
-        on_second = second_lines(fam, twist_families,
-                                 float(np.abs(amp.unfollowed(times, tw)).max()), twist_phase)
+        on_second = second_lines(fam, twist_families, float(np.abs(amp.unfollowed(
+            times, tw)).max()), twist_phase)
     lines = [(0, orders), (1, orders[on_second])] if on_second.any() else [(0, orders)]
-    n_lines = sum(o.size for _, o in lines)
     carriers_of: list[tuple[int, np.ndarray, list[tuple[int, int]]]] = []
     m = np.empty((0, 2))
     if modes is not None and len(modes):  # the swept modal response of orders near a mode
         m = as_modes(modes)
         mode_reach = as_positive(mode_reach, "mode_reach", "half-power half widths")
         rate = np.diff(rec.theta) * fs / (2 * np.pi)  # shaft rate [rev/s]
-        carried = np.concatenate([np.full(o.size, modal_families is None
-                                          or name in modal_families)
-                                  for name, o in fam.items()])
+        carried = np.concatenate([np.full(o.size, modal_families is None or name in
+                                          modal_families) for name, o in fam.items()])
         for a, ords in lines:
             keep = carried if a == 0 else carried[on_second]
             carriers_of.append((a, ords, [(k, j) for k, j in crossing_pairs(
                 ords, (float(rate.min()), float(rate.max())), m, mode_reach) if keep[k]]))
-    n_pairs = sum(len(p) for _, _, p in carriers_of)
-    per_function = 2 * n_lines + 1
+    per_function = 2 * sum(o.size for _, o in lines) + 1
     n_unknown = amp.size * per_function
     width = amp.support * per_function  # columns touched by one block
-    ab = np.zeros((width, n_unknown))
-    rhs = np.zeros((xs.shape[0], n_unknown, xs.shape[2]))
+    ab, rhs = np.zeros((width, n_unknown)), np.zeros((xs.shape[0], n_unknown, xs.shape[2]))
     # the modal carriers' coefficients are global (the mode's residue times the order's
     # excitation, which the carrier's ring-up pins down where it crosses the mode): a
     # dense border of the banded normal matrix
-    n_border = 2 * n_pairs
-    cross_nb = np.zeros((n_unknown, n_border))
-    gram_b = np.zeros((n_border, n_border))
+    n_border = 2 * sum(len(p) for _, _, p in carriers_of)
+    cross_nb, gram_b = np.zeros((n_unknown, n_border)), np.zeros((n_border, n_border))
     rhs_b = np.zeros((xs.shape[0], n_border, xs.shape[2]))
     cuts = _blocks(times, amp.breaks, block)
     # the lower triangle of a local normal matrix, entry (i, j) -> lower band storage
@@ -355,6 +351,7 @@ def residual_regression(x: np.ndarray, fs: float, pulse_times: np.ndarray,
     low_i, low_j = np.tril_indices(width)
     band_row = low_i - low_j
     carriers = _carriers(angles, fs, m, carriers_of, cuts)
+    kept = [] if n_border * times.size * 8 <= BORDER_CACHE_BYTES else None
     for a, b in zip(cuts[:-1], cuts[1:], strict=True):  # blocks: memory per block only
         design, c0 = _local_design(amp, times[a:b], _phases(angles, lines, a, b))
         gram = design.T @ design
@@ -363,6 +360,8 @@ def residual_regression(x: np.ndarray, fs: float, pulse_times: np.ndarray,
             rhs[r, c0:c0 + width] += design.T @ y[r, a:b]
         if n_border:
             border = _border_design(next(carriers))
+            if kept is not None:
+                kept.append(border)
             cross_nb[c0:c0 + width] += design.T @ border
             gram_b += border.T @ border
             for r in range(xs.shape[0]):
@@ -389,10 +388,11 @@ def residual_regression(x: np.ndarray, fs: float, pulse_times: np.ndarray,
         coef[::per_function] = 0.0  # the slow mean is fitted, never subtracted
     out = xs.copy()
     seg = out[:, rec.span]
-    carriers = _carriers(angles, fs, m, carriers_of, cuts)  # again, from the start
+    borders = iter(kept) if kept is not None else map(  # or again, from the start
+        _border_design, _carriers(angles, fs, m, carriers_of, cuts))
     for a, b in zip(cuts[:-1], cuts[1:], strict=True):
         design, c0 = _local_design(amp, times[a:b], _phases(angles, lines, a, b))
-        border = _border_design(next(carriers)) if n_border else None
+        border = next(borders) if n_border else None
         for r, (coef, coef_b) in enumerate(zip(coefs, coefs_b, strict=True)):
             seg[r, a:b] -= design @ coef[c0:c0 + width]
             if border is not None:
