@@ -7,10 +7,10 @@ smoother are then linear time-invariant recursions, run with the exact block sim
 :func:`gbpipe.lti.dlsim` (forward: the one-step predictor; backward: the RTS recursion
 ``x̂s[k] = x̂f[k] + G (x̂s[k+1] − x̂p[k+1])``, ``G = P_f Aᵀ P⁻¹``), in blocks of
 :data:`BLOCK` samples: the forward pass keeps each block's start state, the backward pass
-computes each block's drive again from it (1.5 times the forward work, the memory of a
-block instead of the record's states: hour-long records). The smoothed covariance
-is the steady state of the RTS covariance recursion, a discrete Lyapunov equation
-(``scipy.linalg.solve_discrete_lyapunov``): ``Ps = G Ps Gᵀ + P_f − G P Gᵀ``.
+computes each block's drive again from it but the last's (up to 1.5 times the forward
+work, the memory of a block instead of the record's states: hour-long records). The
+smoothed covariance is the steady state of the RTS covariance recursion, a discrete
+Lyapunov equation (``scipy.linalg.solve_discrete_lyapunov``): ``Ps = G Ps Gᵀ + P_f − G P Gᵀ``.
 
 The constant offsets ``b`` and the initial state ``x0`` enter the innovations linearly,
 ``e[k] = e0[k] − R[k] θ``, ``θ = [x0, b]`` with ``R[k] = [C Φᵏ, Gy + C Σ_{j<k} Φʲ Γ]``
@@ -288,17 +288,20 @@ def smooth(model: EstimationModel, noise: NoiseModel, y: np.ndarray, u: np.ndarr
     # the filter in blocks, keeping the predicted state at each block's start only; the
     # smoother then runs backward block by block, each block's drive computed again from
     # its start state: the memory of one block, not of the record's states (issue 47)
+    # (the last block's drive is kept: the backward pass starts there, and a record of one
+    # block is then driven once)
     starts = list(range(0, N - 1, block))
     xp_start, xp = [], x0
     for k0 in starts:
         xp_start.append(xp)
-        xp = drive(k0, min(k0 + block, N - 1), xp)[1]
+        d, xp = drive(k0, min(k0 + block, N - 1), xp)
     xs = Cf @ xp + Df @ np.concatenate([y[-1], u[-1], [1.0]])   # x̂s[N−1] = x̂f[N−1]
     out = np.vstack([model.Cz, np.eye(n)[model.load_states]])
     zs = np.empty((N, len(out)))
     for k0, xp in zip(starts[::-1], xp_start[::-1], strict=True):
         k1 = min(k0 + block, N - 1)
-        d = drive(k0, k1, xp)[0]
+        if k1 < N - 1:
+            d = drive(k0, k1, xp)[0]
         # r[j] = x̂s[k1−j], r[j+1] = G r[j] + d[k1−1−j]: outputs x̂s[k1] .. x̂s[k0+1]
         zk, xs = dlsim(g.G, np.eye(n), out, np.zeros((len(out), n)), d[::-1], xs,
                        return_state=True)
