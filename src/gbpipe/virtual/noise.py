@@ -132,7 +132,7 @@ def fit_noise(model: EstimationModel, y: np.ndarray, u: np.ndarray) -> NoiseFit:
     res = None
     for decades in (0.0, -_PROCESS_DECADES, _PROCESS_DECADES):
         x0 = v0[1:] + decades * np.log(10.0) * process
-        if cost(x0) >= 1e30:
+        if decades and cost(x0) >= 1e30:   # the data's start is known finite (above)
             continue
         # ftol: a change of 1e-7 in −2 log L per sample is far below what moves an estimate
         trial = optimize.minimize(cost, x0, method="L-BFGS-B",
