@@ -5,6 +5,9 @@ Public API
 ----------
 write, read
     The one NetCDF writer and reader (:mod:`gbpipe.io.netcdf`).
+block_writer, BlockFile
+    A NetCDF file of :func:`write`'s content filled block by block along time (long
+    outputs; :mod:`gbpipe.io.blocks`).
 write_csv
     CSV tables (:mod:`gbpipe.io.tables`).
 setup_log
@@ -23,6 +26,7 @@ MARGIN_DB, rounding_margin_db
 """
 
 from gbpipe.io.atomic import atomic_path, clean_temporaries
+from gbpipe.io.blocks import BlockFile, block_writer
 from gbpipe.io.cf import TIME_DIM, cf_units
 from gbpipe.io.netcdf import read, write
 from gbpipe.io.provenance import config_sha256, file_sha256, source_files
@@ -31,7 +35,7 @@ from gbpipe.io.runlog import setup_log
 from gbpipe.io.storage import MARGIN_DB, rounding_margin_db
 from gbpipe.io.tables import write_csv
 
-__all__ = ["write", "read", "write_csv", "setup_log", "atomic_path", "clean_temporaries",
-           "config_sha256", "file_sha256", "source_files", "cf_units", "TIME_DIM",
-           "measured_signal", "mean_shaft_frequency", "longest_segment", "MARGIN_DB",
-           "rounding_margin_db"]
+__all__ = ["write", "read", "block_writer", "BlockFile", "write_csv", "setup_log",
+           "atomic_path", "clean_temporaries", "config_sha256", "file_sha256",
+           "source_files", "cf_units", "TIME_DIM", "measured_signal", "mean_shaft_frequency",
+           "longest_segment", "MARGIN_DB", "rounding_margin_db"]

@@ -19,7 +19,7 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
 
-__all__ = ["atomic_path", "clean_temporaries", "output_mode", "TEMP_GLOB"]
+__all__ = ["atomic_path", "scratch_path", "clean_temporaries", "output_mode", "TEMP_GLOB"]
 
 #: Glob of the temporaries :func:`atomic_path` makes (hidden, ``.tmp`` suffix).
 TEMP_GLOB = ".*.gbpipe.tmp"
@@ -30,6 +30,27 @@ def output_mode() -> int:
     umask = os.umask(0)
     os.umask(umask)
     return 0o666 & ~umask
+
+
+@contextmanager
+def scratch_path(path: str | os.PathLike, tag: str = "") -> Iterator[Path]:
+    """Yield a new empty temporary file beside ``path`` (named as :data:`TEMP_GLOB` says,
+    ``tag`` in its name), removed when the ``with`` block ends.
+
+    For a file a job needs only while it writes ``path`` (the template of
+    :func:`gbpipe.io.block_writer`): a job killed with SIGKILL leaves it to
+    :func:`clean_temporaries`. The folder is created if needed.
+    """
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.{tag}", suffix=".gbpipe.tmp",
+                               dir=path.parent)
+    os.close(fd)
+    tmp_path = Path(tmp)
+    try:
+        yield tmp_path
+    finally:
+        tmp_path.unlink(missing_ok=True)
 
 
 @contextmanager
@@ -46,18 +67,10 @@ def atomic_path(path: str | os.PathLike) -> Iterator[Path]:
     path : path-like
         The final output. Its folder is created if needed.
     """
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".gbpipe.tmp", dir=path.parent)
-    os.close(fd)
-    tmp_path = Path(tmp)
-    try:
+    with scratch_path(path) as tmp_path:
         yield tmp_path
         os.chmod(tmp_path, output_mode())
         os.replace(tmp_path, path)
-    finally:
-        if tmp_path.exists():
-            tmp_path.unlink()
 
 
 def clean_temporaries(root: str | os.PathLike) -> list[Path]:

@@ -129,7 +129,7 @@ def write(
 #: netCDF library's default, 64 MiB per variable, is kept while a file is open: an identify
 #: job with a 20-min bench record and its TSA version open (lazily, 14 variables) held
 #: 0.9 GB of it. A variable is read whole and in order (or in windows of whole chunks of
-#: 512 kB, gbpipe.measured.writer.CHUNK), so two chunks are enough: 569 -> 387 MB peak
+#: 512 kB, gbpipe.io.blocks.CHUNK), so two chunks are enough: 569 -> 387 MB peak
 #: for the identify job of a 6-min record (4 MiB: 427 MB), the same CPU time (23.8, 23.6 s).
 READ_CACHE = 1 << 20
 netCDF4.set_chunk_cache(READ_CACHE, 1009, 0.75)

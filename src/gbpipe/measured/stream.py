@@ -22,12 +22,12 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-import netCDF4
 import numpy as np
 import xarray as xr
 from scipy.signal import savgol_filter
 
 from gbpipe.errors import DataError
+from gbpipe.io import BlockFile
 from gbpipe.measured import checks, derived, layout
 from gbpipe.measured.channels import Channel
 from gbpipe.measured.columns import Column, StreamChannel, blocks
@@ -181,8 +181,8 @@ def write_record(rec: RecordSpec, base: Path, out: str | os.PathLike, *,
         template.attrs.update(layout.record_attrs(rec, base, chans, start, clock, notes,
                                                   hash_files=False))
 
-        def fill(nc: netCDF4.Dataset) -> None:
-            _fill(nc, rec, plan, segs, start)
+        def fill(f: BlockFile) -> None:
+            _fill(f, rec, plan, segs, start)
 
         return write_blocks(template, n_total, out, fill, provenance,
                             [base / f.path for f in rec.files.values()])
@@ -203,16 +203,16 @@ def _template(rec: RecordSpec, plan: Mapping[str, list[StreamPiece]],
     return layout.add_tachos(ds, rec, pulses)
 
 
-def _fill(nc: netCDF4.Dataset, rec: RecordSpec, plan: Mapping[str, list[StreamPiece]],
+def _fill(f: BlockFile, rec: RecordSpec, plan: Mapping[str, list[StreamPiece]],
           segs: list[tuple[int, int]], start: float) -> None:
     """Write the time axis (and segment numbers) and every signal, block by block."""
     fs = rec.sample_rate
     filled = 0
     for k, (m0, n) in enumerate(segs):
         for a, b in blocks(n, OUT_BLOCK):
-            nc["time"][filled + a:filled + b] = (m0 + np.arange(a, b)) / fs
-            if "segment" in nc.variables:
-                nc["segment"][filled + a:filled + b] = np.full(b - a, k)
+            f.write("time", filled + a, (m0 + np.arange(a, b)) / fs)
+            if "segment" in f:
+                f.write("segment", filled + a, np.full(b - a, k))
         filled += n
     progress = Progress(log, f"record '{rec.name}': signals written", len(plan))
     for done, (sname, plist) in enumerate(plan.items()):
@@ -225,6 +225,6 @@ def _fill(nc: netCDF4.Dataset, rec: RecordSpec, plan: Mapping[str, list[StreamPi
             read = _speed_reader(piece, fs) if angle else piece.read
             values = BlockResampler(read, piece.size, piece.t0, piece.dt, t_a, fs, n)
             for a, b in blocks(n, OUT_BLOCK):
-                nc[sname][filled + a:filled + b] = values(a, b)
+                f.write(sname, filled + a, values(a, b))
                 progress(done, f"{sname}: {filled + b} samples")
             filled += n
