@@ -11,8 +11,11 @@ load_duration(x, dt, edges)
     Time at level [s] per bin.
 range_histogram(cycles, edges)
     Cycles per range bin.
+BlockSpectrum(lo, hi, bins, dt), Spectrum, turning_points(x)
+    The same spectra of a signal given block by block (its turning points held).
 """
 
+from gbpipe.loads.blockwise import BlockSpectrum, Spectrum, turning_points
 from gbpipe.loads.spectra import (
     Cycles,
     damage_equivalent_load,
@@ -22,4 +25,4 @@ from gbpipe.loads.spectra import (
 )
 
 __all__ = ["Cycles", "rainflow_cycles", "damage_equivalent_load", "load_duration",
-           "range_histogram"]
+           "range_histogram", "BlockSpectrum", "Spectrum", "turning_points"]

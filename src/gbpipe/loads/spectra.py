@@ -59,7 +59,9 @@ def rainflow_cycles(x: np.ndarray) -> Cycles:
     x = np.asarray(x, dtype=float)
     if not np.all(np.isfinite(x)):
         raise ValueError("the signal holds NaN or inf: rainflow needs a finite series")
-    c = np.array([cyc[:3] for cyc in rainflow.extract_cycles(x)]).reshape(-1, 3)
+    # straight into one (k, 3) array: a list of k tuples would hold ~150 B per cycle
+    c = np.fromiter((cyc[:3] for cyc in rainflow.extract_cycles(x)),
+                    dtype=np.dtype((float, 3)))
     return Cycles(c[:, 0], c[:, 1], c[:, 2])
 
 
