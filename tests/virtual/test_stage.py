@@ -30,8 +30,9 @@ def shaftline(tmp_path_factory):
     cfg = load(CONFIG, EXAMPLE, {"virtual": {"noise": {"window": [0.0, 3.0]}}})
     spec = cfg["measured"]["run1"]
     record = read(spec, folder, name="run1")
-    ds = virtual_record(cfg["virtual"], {"drivetrain": cfg["drivetrain"]}, record, "run1")
-    return cfg, truth, ds
+    out = virtual_record(cfg["virtual"], {"drivetrain": cfg["drivetrain"]}, record, "run1",
+                         folder / "virtual.nc")
+    return cfg, truth, io.read(out)
 
 
 def test_held_out_torque_meter(shaftline):
@@ -92,12 +93,18 @@ def test_output_is_cf_compliant_and_reads_back(tmp_path):
         coords={"time": t})
     cfg = load(CONFIG, {"virtual": {"holdout": ["torque_first"], "speeds": ["n2"],
                                     "noise": {"window": [0.0, 1.0]}}})
-    ds = virtual_record(cfg["virtual"], {"drivetrain": rec.description}, record, "chain")
-    path = io.write(ds, tmp_path / "chain.nc", stage="virtual", config=cfg["virtual"],
-                    wildcards={"record": "chain"})
+    path = virtual_record(cfg["virtual"], {"drivetrain": rec.description}, record, "chain",
+                          tmp_path / "chain.nc",
+                          provenance={"config": cfg["virtual"], "wildcards": {"record": "chain"}})
     assert cf_findings(path) == []
     back = io.read(path)
     assert back.sizes["load"] == 0
-    assert set(back.data_vars) == set(ds.data_vars)
+    assert back.attrs["stage"] == "virtual" and back.attrs["wildcard_record"] == "chain"
+    assert set(back.data_vars) == {
+        "estimate", "lower", "upper", "estimate_sd", "steady", "offset_value", "offset_sd",
+        "sensor_noise_sd", "input_noise_sd", "load_step_sd", "model_noise_sd",
+        "holdout_measured", "holdout_fit_percent", "holdout_fit_percent_with_mean",
+        "holdout_rms_error", "holdout_coverage_95", "holdout_noise_sd", "cycle_range",
+        "cycle_count", "load_level", "time_at_level", "del", "signal_source"}
     assert list(back.target.values) == ["torque_shaft0", "torque_shaft1", "torque_shaft2",
                                         "speed_n2", "torque_first"]

@@ -8,9 +8,11 @@ estimation_model(chain, measured, targets, loads, dt)
 fit_noise(model, y, u)
     Noise levels from the record (maximum likelihood on the innovations).
 smooth(model, noise, y, u)
-    Steady-state Kalman filter + RTS smoother: estimates and their standard deviations.
-virtual_record(settings, model_cfg, record, name), table_rows(ds, record)
-    The ``virtual`` stage of one bench record, and its rows of ``tables/virtual.csv``.
+    Steady-state Kalman filter + RTS smoother: estimates (block by block, or whole) and
+    their standard deviations.
+virtual_record(settings, model_cfg, record, name, out), table_rows(ds, record)
+    The ``virtual`` stage of one bench record (its output written block by block), and
+    its rows of ``tables/virtual.csv``.
 """
 
 from gbpipe.virtual.model import EstimationModel, estimation_model, target_names

@@ -8,7 +8,8 @@ smoother are then linear time-invariant recursions, run with the exact block sim
 ``x̂s[k] = x̂f[k] + G (x̂s[k+1] − x̂p[k+1])``, ``G = P_f Aᵀ P⁻¹``), in blocks of
 :data:`BLOCK` samples: the forward pass keeps each block's start state, the backward pass
 computes each block's drive again from it but the last's (up to 1.5 times the forward
-work, the memory of a block instead of the record's states: hour-long records). The
+work, the memory of a block instead of the record's states: hour-long records), and the
+estimates leave block by block as it makes them (:meth:`Estimate.blocks`). The
 smoothed covariance is the steady state of the RTS covariance recursion, a discrete
 Lyapunov equation (``scipy.linalg.solve_discrete_lyapunov``): ``Ps = G Ps Gᵀ + P_f − G P Gᵀ``.
 
@@ -16,19 +17,22 @@ The constant offsets ``b`` and the initial state ``x0`` enter the innovations li
 ``e[k] = e0[k] − R[k] θ``, ``θ = [x0, b]`` with ``R[k] = [C Φᵏ, Gy + C Σ_{j<k} Φʲ Γ]``
 (``Φ`` the predictor's state matrix): they are estimated by generalised least squares over
 the whole record (the diffuse prior of a constant; no tuning), the powers ``C Φᵏ`` only
-until they have decayed to 1e-10. The band of an estimate adds the offsets' uncertainty
-(their covariance through the smoother's static gain) to ``C_z Ps C_zᵀ`` and, where an
-estimate reads a motor torque directly, that torque's noise. Near the record's ends the
-band is the steady one (the transient of the initial state is not in it): the samples where
-it holds, every estimate's variance within 5 % of its steady one, are flagged
-(``Estimate.steady``), the ends' excess variance from the covariance recursions with the
-steady gains (``D ← Φ D Φᵀ`` from the initial state's GLS covariance, ``D ← G D Gᵀ`` from
-``P_f − P_s``), evaluated by the stacked free response.
+until they have decayed to 1e-10 (past that, a block's innovations enter by their count,
+mean and spread: the predictor pass in blocks too). The band of an estimate adds the
+offsets' uncertainty (their covariance through the smoother's static gain) to
+``C_z Ps C_zᵀ`` and, where an estimate reads a motor torque directly, that torque's noise.
+Near the record's ends the band is the steady one (the transient of the initial state is
+not in it): the samples where it holds, every estimate's variance within 5 % of its
+steady one, are flagged (``Estimate.steady``), the ends' excess variance from the
+covariance recursions with the steady gains (``D ← Φ D Φᵀ`` from the initial state's GLS
+covariance, ``D ← G D Gᵀ`` from ``P_f − P_s``), evaluated by the stacked free response.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass, field
+from functools import cached_property
 
 import numpy as np
 from scipy import linalg
@@ -125,8 +129,6 @@ class Estimate:
 
     Attributes
     ----------
-    z : ndarray
-        Estimates (N, r) of ``model.targets`` then the loads [their units].
     sd : ndarray
         Standard deviation (r + n_loads,) of each estimate (steady state) [its unit].
     offsets, offsets_sd : ndarray
@@ -144,13 +146,38 @@ class Estimate:
         as ``ρ²ᵏ`` (``ρ`` the spectral radius of ``Φ``, ``G``): a few time constants.
     """
 
-    z: np.ndarray
     sd: np.ndarray
     offsets: np.ndarray
     offsets_sd: np.ndarray
     neg2_loglik: float
     scale: float
     steady: np.ndarray
+    _passes: Callable[[], Iterator[tuple[int, np.ndarray]]] = field(repr=False)
+
+    def blocks(self) -> Iterator[tuple[int, np.ndarray]]:
+        """The estimates block by block, as the smoother's backward pass makes them (the
+        last samples first; one block's memory, the filter and smoother run again on each
+        call).
+
+        Yields
+        ------
+        start : int
+            The block's first sample [-].
+        z : ndarray (n_block, r + n_loads)
+            Estimates of samples ``start …`` of ``model.targets`` then the loads [their
+            units].
+        """
+        return self._passes()
+
+    @cached_property
+    def z(self) -> np.ndarray:
+        """Estimates (N, r + n_loads) of ``model.targets`` then the loads [their units],
+        assembled from :meth:`blocks` on first use (N (r + n_loads) 8 bytes: a record that
+        fits in memory)."""
+        z = np.empty((len(self.steady), len(self.sd)))
+        for start, zk in self.blocks():
+            z[start:start + len(zk)] = zk
+        return z
 
 
 def gains(model: EstimationModel, noise: NoiseModel) -> Gains:
@@ -195,8 +222,8 @@ def _free_response(C: np.ndarray, Phi: np.ndarray, n_samples: int) -> np.ndarray
     return out[:length * p].reshape(length, p, n)
 
 
-def innovations(model: EstimationModel, g: Gains, y: np.ndarray, u: np.ndarray
-                ) -> tuple[np.ndarray, np.ndarray, float]:
+def innovations(model: EstimationModel, g: Gains, y: np.ndarray, u: np.ndarray, *,
+                block: int = BLOCK) -> tuple[np.ndarray, np.ndarray, float]:
     """The GLS estimate of ``θ = [x0, b]`` from the innovations, and what is left.
 
     Parameters
@@ -205,6 +232,9 @@ def innovations(model: EstimationModel, g: Gains, y: np.ndarray, u: np.ndarray
         Measured channels [their units].
     u : ndarray (N, m)
         Motor torques [N·m].
+    block : int
+        Samples per block of the predictor pass [-] (the memory it holds: the whitened
+        innovations of a block, and of the ``L`` samples until ``C Φᵏ`` has decayed).
 
     Returns
     -------
@@ -218,54 +248,71 @@ def innovations(model: EstimationModel, g: Gains, y: np.ndarray, u: np.ndarray
     n, nb, (N, p) = A.shape[0], model.Gx.shape[1], y.shape
     AK = A @ K
     W = linalg.inv(linalg.cholesky(g.S, lower=True))
-    # the whitened innovations, one (N, p) array worked on in place (an hour at 5 kHz is
-    # 18e6 samples: each copy of it ~1 GB)
-    we = dlsim(Phi, np.hstack([AK, model.B - AK @ model.D]), -C,
-               np.hstack([np.eye(p), -model.D]), np.hstack([y, u]))
-    we @= W.T
     O = _free_response(C, Phi, N)
     L = O.shape[0]
+    # the whitened innovations with θ = 0, block by block (an hour at 5 kHz is 18e6
+    # samples: ~1 GB per copy of them): those of the first L samples kept, where the
+    # regressors R[k] still change; past L, R[k] is the constant rb_inf, so a block's
+    # count, mean and sum of squares about its mean are all θ's fit needs (Chan's
+    # pairwise update: no cancellation between large sums)
+    Bi, Di = np.hstack([AK, model.B - AK @ model.D]), np.hstack([np.eye(p), -model.D])
+    head, tail, x = np.empty((L, p)), [], np.zeros(n)
+    for k0 in range(0, N, block):
+        k1 = min(k0 + block, N)
+        we, x = dlsim(Phi, Bi, -C, Di, np.hstack([y[k0:k1], u[k0:k1]]), x,
+                      return_state=True)
+        we @= W.T
+        h = min(max(L - k0, 0), k1 - k0)
+        head[k0:k0 + h] = we[:h]
+        if h < k1 - k0:
+            mean = we[h:].mean(axis=0)
+            tail.append((k1 - k0 - h, mean, float(np.sum((we[h:] - mean) ** 2))))
     Gamma = model.Gx - AK @ model.Gy
     H = O @ Gamma
     Rb = model.Gy + np.concatenate([np.zeros((1, p, nb)), np.cumsum(H, axis=0)[:-1]])
     Rt = W @ np.concatenate([O, Rb], axis=2)                 # (L, p, n + nb)
     flat = Rt.reshape(L * p, n + nb)
     normal = flat.T @ flat
-    rhs = flat.T @ we[:L].reshape(L * p)
-    if L < N and nb:
-        rb_inf = W @ (model.Gy + C @ linalg.solve(np.eye(n) - Phi, Gamma))
+    rhs = flat.T @ head.reshape(L * p)
+    rb_inf = W @ (model.Gy + C @ linalg.solve(np.eye(n) - Phi, Gamma))
+    if tail and nb:
         normal[n:, n:] += (N - L) * rb_inf.T @ rb_inf
-        rhs[n:] += rb_inf.T @ we[L:].sum(axis=0)
+        rhs[n:] += rb_inf.T @ np.sum([c * m for c, m, _ in tail], axis=0)
     # scaled by each state's steady uncertainty (and the offsets by their own
     # information) before the pseudo-inverse: a direction of x0 the record does not
     # determine to 1e-8 of the best one is left at 0, never fitted to the noise
     scale = np.concatenate([np.sqrt(np.diag(g.P)), 1 / np.sqrt(np.diag(normal)[n:])])
     cov = linalg.pinvh(normal * np.outer(scale, scale), rtol=_RCOND) * np.outer(scale, scale)
     theta = cov @ rhs
-    we[:L] -= Rt @ theta
-    if L < N and nb:
-        we[L:] -= rb_inf @ theta[n:]
-    return theta, cov, float(np.einsum("ij,ij->", we, we))
+    head -= Rt @ theta
+    fitted = rb_inf @ theta[n:] if nb else np.zeros(p)
+    rss = float(np.einsum("ij,ij->", head, head)) + sum(
+        ss + c * float(np.sum((m - fitted) ** 2)) for c, m, ss in tail)
+    return theta, cov, rss
 
 
 def smooth(model: EstimationModel, noise: NoiseModel, y: np.ndarray, u: np.ndarray, *,
            block: int = BLOCK) -> Estimate:
     """Smoothed targets and loads of a record, with their standard deviations.
 
+    Everything but the estimates is computed here; the estimates come block by block from
+    :meth:`Estimate.blocks` (or whole, :attr:`Estimate.z`).
+
     Parameters
     ----------
     model : EstimationModel
     noise : NoiseModel
     y : ndarray (N, p)
-        Measured channels in ``model.measured`` order [their units].
+        Measured channels in ``model.measured`` order [their units]; read again by each
+        pass of :meth:`Estimate.blocks`, so not to be changed while it runs.
     u : ndarray (N, m)
-        Motor torques in ``model.inputs`` order [N·m].
+        Motor torques in ``model.inputs`` order [N·m] (the same).
     block : int
         Samples per block of the filter and smoother passes [-] (the memory they hold;
         the result is the same for any block, to round-off).
     """
     g = gains(model, noise)
-    theta, cov, rss = innovations(model, g, y, u)
+    theta, cov, rss = innovations(model, g, y, u, block=block)
     A, C, K = model.A, model.C, g.K
     n, nb, (N, p) = A.shape[0], model.Gx.shape[1], y.shape
     x0, b = theta[:n], theta[n:]
@@ -279,36 +326,38 @@ def smooth(model: EstimationModel, noise: NoiseModel, y: np.ndarray, u: np.ndarr
     IGA = np.eye(n) - g.G @ A
     Dd = IGA @ Df - np.hstack([np.zeros((n, p)), g.G @ model.B,
                                (g.G @ model.Gx @ b)[:, None]])
+    out = np.vstack([model.Cz, np.eye(n)[model.load_states]])
+    dz = np.vstack([model.Dz, np.zeros((len(model.load_states), model.Dz.shape[1]))])
 
     def drive(k0: int, k1: int, xp: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """d[k0:k1] from the predicted state at k0, and the predicted state at k1."""
         w = np.hstack([y[k0:k1], u[k0:k1], np.ones((k1 - k0, 1))])
         return dlsim(g.Phi, Bp, IGA @ Cf, Dd, w, xp, return_state=True)
 
-    # the filter in blocks, keeping the predicted state at each block's start only; the
-    # smoother then runs backward block by block, each block's drive computed again from
-    # its start state: the memory of one block, not of the record's states (issue 47)
-    # (the last block's drive is kept: the backward pass starts there, and a record of one
-    # block is then driven once)
-    starts = list(range(0, N - 1, block))
-    xp_start, xp = [], x0
-    for k0 in starts:
-        xp_start.append(xp)
-        d, xp = drive(k0, min(k0 + block, N - 1), xp)
-    xs = Cf @ xp + Df @ np.concatenate([y[-1], u[-1], [1.0]])   # x̂s[N−1] = x̂f[N−1]
-    out = np.vstack([model.Cz, np.eye(n)[model.load_states]])
-    zs = np.empty((N, len(out)))
-    for k0, xp in zip(starts[::-1], xp_start[::-1], strict=True):
-        k1 = min(k0 + block, N - 1)
-        if k1 < N - 1:
-            d = drive(k0, k1, xp)[0]
-        # r[j] = x̂s[k1−j], r[j+1] = G r[j] + d[k1−1−j]: outputs x̂s[k1] .. x̂s[k0+1]
-        zk, xs = dlsim(g.G, np.eye(n), out, np.zeros((len(out), n)), d[::-1], xs,
-                       return_state=True)
-        zs[k0 + 1:k1 + 1] = zk[::-1]
-    zs[0] = out @ xs
-    dz = np.vstack([model.Dz, np.zeros((len(model.load_states), model.Dz.shape[1]))])
-    zs += u @ dz.T   # in place: an (N, r) array less at the peak
+    def passes() -> Iterator[tuple[int, np.ndarray]]:
+        # the filter in blocks, keeping the predicted state at each block's start only;
+        # the smoother then runs backward block by block, each block's drive computed
+        # again from its start state: the memory of one block, not of the record's
+        # states (issue 47) (the last block's drive is kept: the backward pass starts
+        # there, and a record of one block is then driven once)
+        starts = list(range(0, N - 1, block))
+        xp_start, xp = [], x0
+        for k0 in starts:
+            xp_start.append(xp)
+            d, xp = drive(k0, min(k0 + block, N - 1), xp)
+        xs = Cf @ xp + Df @ np.concatenate([y[-1], u[-1], [1.0]])   # x̂s[N−1] = x̂f[N−1]
+        for k0, xp in zip(starts[::-1], xp_start[::-1], strict=True):
+            k1 = min(k0 + block, N - 1)
+            if k1 < N - 1:
+                d = drive(k0, k1, xp)[0]
+            # r[j] = x̂s[k1−j], r[j+1] = G r[j] + d[k1−1−j]: outputs x̂s[k1] .. x̂s[k0+1]
+            zk, xs = dlsim(g.G, np.eye(n), out, np.zeros((len(out), n)), d[::-1], xs,
+                           return_state=True)
+            zk = zk[::-1]
+            zk += u[k0 + 1:k1 + 1] @ dz.T
+            yield k0 + 1, zk
+        yield 0, (out @ xs + dz @ u[0])[None, :]
+
     var = np.einsum("ij,jk,ik->i", out, g.Ps, out) + (dz * noise.input_sd) ** 2 @ np.ones(
         dz.shape[1])
     scale = rss / (N * p)
@@ -328,8 +377,8 @@ def smooth(model: EstimationModel, noise: NoiseModel, y: np.ndarray, u: np.ndarr
     start = _transient(out, g.Phi, cov[:n, :n], tol, N)
     end = _transient(out, g.G, g.Pf - g.Ps, tol, N)
     steady = (k >= start) & (N - 1 - k >= end)
-    return Estimate(zs, np.sqrt(var), b, np.sqrt(np.diag(cov_b)), float(neg2),
-                    float(scale), steady)
+    return Estimate(np.sqrt(var), b, np.sqrt(np.diag(cov_b)), float(neg2), float(scale),
+                    steady, passes)
 
 
 def _transient(out: np.ndarray, m: np.ndarray, excess: np.ndarray, tol: np.ndarray,

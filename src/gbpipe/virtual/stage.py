@@ -8,77 +8,69 @@ torques as known inputs, the chosen sensors as measurements; noise from the reco
 ``virtual.noise.window`` (maximum likelihood), then the steady-state smoother over the
 whole record. Fit, coverage and the load spectra are computed on the steady part (the
 filter's start and the smoother's end transients left out, ``steady`` in the output).
+
+Hour-long records (issue 47): the output is written as the smoother makes it, block by
+block (:func:`gbpipe.io.block_writer`), the held-out comparison accumulated over the same
+blocks (:class:`gbpipe.virtual.holdout.HoldoutFit`); a second pass over the steady part,
+forward, reads the estimates back from the file and the measured torques from the record
+for the load spectra (:class:`gbpipe.loads.BlockSpectrum`: their level bins need each
+signal's range, known after the first pass). What stays in memory for the whole record:
+the measured channels the estimator reads and the time axis, and the load spectra's
+turning points.
 """
 
 from __future__ import annotations
 
+import logging
+import os
 from collections.abc import Mapping
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 import xarray as xr
 
+from gbpipe import io
 from gbpipe.errors import ConfigError, DataError
-from gbpipe.loads import damage_equivalent_load, load_duration, rainflow_cycles, range_histogram
-from gbpipe.lti import fit_percent
+from gbpipe.loads import BlockSpectrum
 from gbpipe.model import bench_chain
+from gbpipe.progress import Progress
+from gbpipe.virtual.holdout import HoldoutFit
 from gbpipe.virtual.model import estimation_model, target_names
 from gbpipe.virtual.noise import fit_noise
-from gbpipe.virtual.smoother import Z95, NoiseModel, smooth
+from gbpipe.virtual.output import LATE_HOLDOUT, LATE_SPECTRA, Layout, template
+from gbpipe.virtual.smoother import BLOCK, Z95, Estimate, NoiseModel, smooth
 
 __all__ = ["virtual_record", "table_rows", "TABLE_COLUMNS"]
+
+log = logging.getLogger(__name__)
 
 #: Columns of ``tables/virtual.csv`` (one row per record and held-out signal).
 TABLE_COLUMNS = ["record", "signal", "unit", "fit_percent", "fit_percent_with_mean",
                  "rms_error", "coverage_95", "steady_samples", "noise_window_s"]
 
 
-def _var(dims: tuple[str, ...], values: Any, unit: str, name: str) -> tuple:
-    return dims, values, {"units": unit, "long_name": name}
-
-
-def _columns(record: xr.Dataset, names: list[str], field: str) -> np.ndarray:
+def _columns(record: xr.Dataset, names: list[str], field: str,
+             part: slice = slice(None)) -> np.ndarray:
+    """The record's signals ``names`` over the samples ``part``, as columns (float64)."""
     missing = [n for n in names if n not in record]
     if missing:
         raise ConfigError(field, f"the record has no signal {', '.join(missing)}; its "
                           f"signals: {', '.join(map(str, record.data_vars))}; name them as "
                           "the chain's sensors and motor inputs (measured.<record>.signals)")
-    return np.column_stack([record[n].values.astype(float) for n in names])
-
-
-def _spectra(signals: Mapping[str, np.ndarray], dt: float, slopes: list[float],
-             f_eq: float, bins: int) -> dict[str, tuple]:
-    """Rainflow range histogram, load-duration distribution and DEL of each torque."""
-    hist, centre, ldd, level, dels = [], [], [], [], []
-    for x in signals.values():
-        cyc = rainflow_cycles(x)
-        top = max(float(cyc.range.max()) if cyc.range.size else 0.0, 1e-12)
-        edges = np.linspace(0.0, top, bins + 1)
-        hist.append(range_histogram(cyc, edges))
-        centre.append(0.5 * (edges[1:] + edges[:-1]))
-        lo, hi = float(x.min()), float(x.max())
-        ledges = np.linspace(lo, hi if hi > lo else lo + 1e-12, bins + 1)
-        ldd.append(load_duration(x, dt, ledges))
-        level.append(0.5 * (ledges[1:] + ledges[:-1]))
-        dels.append(damage_equivalent_load(cyc, slopes, f_eq * len(x) * dt))
-    sd, rd, ld = ("signal",), ("signal", "range_bin"), ("signal", "level_bin")
-    return {
-        "cycle_range": _var(rd, np.array(centre), "N m", "rainflow range (bin centre)"),
-        "cycle_count": _var(rd, np.array(hist), "1", "rainflow cycles in the range bin "
-                            "(half cycles count 1/2)"),
-        "load_level": _var(ld, np.array(level), "N m", "torque level (bin centre)"),
-        "time_at_level": _var(ld, np.array(ldd), "s", "time at level (load-duration "
-                              "distribution)"),
-        "del": _var(sd + ("sn_slope",), np.array(dels), "N m",
-                    f"damage-equivalent load range at {f_eq:g} Hz equivalent cycles "
-                    "(N_eq = f_eq T, T the steady part's duration)"),
-    }
+    n = len(range(record.sizes["time"])[part])
+    out = np.empty((n, len(names)))
+    # one column at a time into one array: no second copy of the record's channels
+    for i, name in enumerate(names):
+        out[:, i] = record[name].isel(time=part).values
+    return out
 
 
 def virtual_record(settings: Mapping[str, Any], model_cfg: Mapping[str, Any],
-                   record: xr.Dataset, name: str,
-                   signals: Mapping[str, str] | None = None) -> xr.Dataset:
-    """Virtual sensors of one bench record (module docstring).
+                   record: xr.Dataset, name: str, out: str | os.PathLike, *,
+                   signals: Mapping[str, str] | None = None,
+                   provenance: Mapping[str, Any] | None = None) -> Path:
+    """Virtual sensors of one bench record (module docstring), written to ``out``.
 
     Parameters
     ----------
@@ -89,23 +81,31 @@ def virtual_record(settings: Mapping[str, Any], model_cfg: Mapping[str, Any],
         fitted values merged where ``virtual.model: fitted``.
     record : xarray.Dataset
         ``measured/{record}.nc`` (signals named as the chain's sensors and
-        ``motor_torque_<motor>``) [SI].
+        ``motor_torque_<motor>``) [SI]; best opened lazily (``io.read(path, lazy=True)``):
+        the held-out and measured torques are read block by block.
     name : str
         Record name (errors).
+    out : path-like
+        ``virtual/{record}.nc`` (docs/architecture.md, "Data contract"), written
+        atomically.
     signals : mapping, optional
         Record signal name → the chain's (``fit.signals``) where they differ.
+    provenance : mapping, optional
+        Keyword arguments of :func:`gbpipe.io.write` (``stage``, default ``"virtual"``,
+        ``config``, ``wildcards``, ``sources``, ``title``).
 
     Returns
     -------
-    xarray.Dataset
-        ``virtual/{record}.nc`` (docs/architecture.md, "Data contract").
+    pathlib.Path
+        ``out``.
 
     Raises
     ------
     gbpipe.errors.ConfigError
         A sensor, motor input or held-out signal the record lacks; an unknown element.
     gbpipe.errors.DataError
-        Sensors that cannot observe the chain; a noise window with too few samples.
+        Sensors that cannot observe the chain; a noise window with too few samples; a
+        record shorter than the estimator's transients.
     """
     chain = bench_chain(model_cfg)
     record = record.rename({k: v for k, v in (signals or {}).items() if k in record})
@@ -119,126 +119,126 @@ def virtual_record(settings: Mapping[str, Any], model_cfg: Mapping[str, Any],
     dt = float(np.median(np.diff(t)))
     model = estimation_model(chain, sensors, targets, settings["loads"], dt,
                              offsets=settings["offsets"])
+    w0, w1 = settings["noise"]["window"]
+    # the window is one stretch of the record: a slice, read alone
+    win = slice(*np.searchsorted(t, [t[0] + w0, t[0] + w1]))
+    n_win = len(range(len(t))[win])
+    if n_win < 20 * (len(model.states) + 1):
+        raise DataError(name, f"the noise window [{w0}, {w1}] s holds {n_win} "
+                        "samples, too few for the noise fit; widen virtual.noise.window")
     y = _columns(record, model.measured, "virtual.sensors")
     u = _columns(record, model.inputs, "virtual.sensors")
-    w0, w1 = settings["noise"]["window"]
-    win = (t >= t[0] + w0) & (t < t[0] + w1)
-    if win.sum() < 20 * (len(model.states) + 1):
-        raise DataError(name, f"the noise window [{w0}, {w1}] s holds {int(win.sum())} "
-                        "samples, too few for the noise fit; widen virtual.noise.window")
     # the noise levels (one number per sensor) are fitted with the held-out sensors read
     # too: a held-out measurement is compared within its own noise; the estimate never
     # reads a held-out signal
     every = estimation_model(chain, sensors + holdout, [], settings["loads"], dt,
                              offsets=settings["offsets"])
-    nf = fit_noise(every, _columns(record, every.measured, "virtual.holdout")[win], u[win])
+    nf = fit_noise(every, _columns(record, every.measured, "virtual.holdout", win), u[win])
     noise = NoiseModel(nf.noise.sensor_sd[:len(sensors)], nf.noise.input_sd,
                        nf.noise.load_rate, nf.noise.model_sd)
-    holdout_sd = nf.noise.sensor_sd[len(sensors):]
-    est = smooth(model, noise, y, u)
-    del y, u   # the record's channels, no longer needed: their memory for the output's
-    labels = model.targets + [model.states[i] for i in model.load_states]
-    # a target's unit: its sensor's or state's; shaft torques and loads are N m
-    units = [model.units.get(s, "N m") for s in labels]
-    lo, hi = est.z - Z95 * est.sd, est.z + Z95 * est.sd
-    td, mixed = ("time", "target"), "mixed (see target_units)"
-    v = {
-        "estimate": _var(td, est.z, mixed, "smoothed estimate"),
-        "lower": _var(td, lo, mixed, "lower end of the 95 % band"),
-        "upper": _var(td, hi, mixed, "upper end of the 95 % band"),
-        "estimate_sd": _var(("target",), est.sd, mixed, "standard deviation of the estimate "
-                            "(steady state, offsets' uncertainty included)"),
-        "steady": _var(("time",), est.steady.astype(np.int8), "1",
-                       "1 where every estimate's variance is within 5 % of its steady one "
-                       "(outside the start and end transients)"),
-        "offset_value": _var(("offset",), est.offsets, "N m", "estimated constant offset"),
-        "offset_sd": _var(("offset",), est.offsets_sd, "N m", "its standard deviation"),
-        "sensor_noise_sd": _var(("sensor",), noise.sensor_sd, "mixed (see sensor_units)",
-                                "white-noise standard deviation (maximum likelihood)"),
-        "input_noise_sd": _var(("input",), nf.noise.input_sd, "N m",
-                               "motor-torque noise standard deviation (maximum likelihood)"),
-        "load_step_sd": _var(("load",), nf.noise.load_rate * np.sqrt(dt), "N m",
-                             "random-walk step of the unknown load per sample (maximum "
-                             "likelihood)"),
-        "model_noise_sd": _var((), nf.noise.model_sd, "N m", "white torque on every "
-                               "coordinate: the model's error (maximum likelihood)"),
-    }
-    # the held-out sensors against their estimates, on the steady part (the record holds
-    # them: the noise fit above read them)
-    rows, steady = [], np.flatnonzero(est.steady)
+    est = smooth(model, noise, y, u, block=BLOCK)
+    steady = np.flatnonzero(est.steady)
     if steady.size < 2:
         raise DataError(name, f"the record ({len(t)} samples) is shorter than the "
                         "estimator's start and end transients: no steady part to compare or "
                         "count; give a longer record")
-    # the steady part is one stretch (between the start and end transients): a slice,
-    # whose selections are views, not copies of the record's length
-    keep = slice(int(steady[0]), int(steady[-1]) + 1)
-    measured_h = _columns(record, holdout, "virtual.holdout") if holdout else None
-    for i, h in enumerate(holdout):
-        j = labels.index(h)
-        m, z = measured_h[keep, i], est.z[keep, j]
-        # the band of the measurement: the estimate's and the sensor's own noise
-        half = Z95 * np.hypot(est.sd[j], holdout_sd[i])
-        rows.append({"fit_percent": float(fit_percent(m - m.mean(), z - z.mean())[0]),
-                     "fit_percent_with_mean": float(fit_percent(m, z)[0]),
-                     "rms_error": float(np.sqrt(np.mean((m - z) ** 2))),
-                     "coverage_95": float(np.mean(np.abs(m - z) <= half))})
-    if holdout:
-        hd = ("holdout",)
-        v["holdout_measured"] = _var(("time", "holdout"), measured_h,
-                                     "mixed (see holdout_units)", "held-out measurement")
-        for key, unit, text in (("fit_percent", "percent", "fit, means removed (steady part)"),
-                                ("fit_percent_with_mean", "percent", "fit with the means"),
-                                ("rms_error", "mixed (see holdout_units)", "RMS error"),
-                                ("coverage_95", "1", "share of held-out samples in the "
-                                 "band widened by the sensor's noise")):
-            v[f"holdout_{key}"] = _var(hd, np.array([r[key] for r in rows]), unit, text)
-        v["holdout_noise_sd"] = _var(hd, holdout_sd, "mixed (see holdout_units)",
-                                     "the held-out sensor's white noise (maximum likelihood)")
-    s = settings["spectra"]
+    labels = model.targets + [model.states[i] for i in model.load_states]
+    # a target's unit: its sensor's or state's; shaft torques and loads are N m
+    units = [model.units.get(s, "N m") for s in labels]
     # every spectrum over the steady part (the estimates' start and end transients are no
     # load the shaft saw; the measured torques over the same samples, to compare)
-    torques = {n: record[n].values[keep].astype(float) for n in
-               [*model.inputs, *[x for x in sensors if x in chain.torque_sensors], *holdout]
-               if n in record and (n.startswith("motor_torque_") or n in chain.torque_sensors)}
-    measured_names = list(torques)
-    torques.update({lab: est.z[keep, j] for j, lab in enumerate(labels)
-                    if units[j] == "N m" and lab not in torques and lab.startswith("torque_")})
-    spec = _spectra(torques, dt, list(s["sn_slopes"]), s["equivalent_frequency"],
-                    s["bins"])
-    spec["signal_source"] = _var(("signal",), np.array(
-        ["measured" if n in measured_names else "estimated" for n in torques]), "1",
-        "measured or estimated")
-    v.update(spec)
-    c = {
-        "time": ("time", t - t[0], {"units": "s", "long_name": "time from record start"}),
-        "target": _var(("target",), np.array(labels), "1", "estimated signal"),
-        "target_units": _var(("target",), np.array(units), "1", "unit of each target"),
-        "offset": _var(("offset",), np.array(model.offsets, dtype=str), "1",
-                       "offset (offset_<sensor> or offset_motor_torque_<motor>)"),
-        "sensor": _var(("sensor",), np.array(model.measured), "1", "measured sensor"),
-        "sensor_units": _var(("sensor",), np.array([model.units[m] for m in model.measured]),
-                             "1", "unit of each sensor"),
-        "input": _var(("input",), np.array(model.inputs), "1", "motor torque (known input)"),
-        "load": _var(("load",), np.array(list(settings["loads"]), dtype=str), "1",
-                     "disk of an unknown load"),
-        "signal": _var(("signal",), np.array(list(torques)), "1", "torque of the spectra"),
-        "sn_slope": _var(("sn_slope",), np.array(s["sn_slopes"], dtype=float), "1",
-                         "S-N curve slope m"),
-    }
-    if holdout:
-        c["holdout"] = _var(("holdout",), np.array(holdout), "1", "held-out sensor")
-        c["holdout_units"] = _var(("holdout",), np.array([units[labels.index(h)]
-                                                          for h in holdout]), "1", "unit")
+    measured = [n for n in [*model.inputs, *[x for x in sensors if x in chain.torque_sensors],
+                            *holdout]
+                if n in record and (n.startswith("motor_torque_") or n in chain.torque_sensors)]
+    measured = list(dict.fromkeys(measured))
+    lay = Layout(labels, units, holdout, measured + [
+        lab for j, lab in enumerate(labels) if units[j] == "N m" and lab not in measured
+        and lab.startswith("torque_")], measured)
     attrs = {"noise_window_start_s": float(t[win][0] - t[0]),
              "noise_window_end_s": float(t[win][-1] - t[0]),
              "noise_source": (f"maximum likelihood on the innovations of samples "
-                              f"{int(np.argmax(win))}-{int(np.argmax(win)) + int(win.sum()) - 1}"
+                              f"{win.start}-{win.stop - 1}"
                               f" ({t[win][0] - t[0]:g}-{t[win][-1] - t[0]:g} s)"),
              "noise_converged": int(nf.converged), "noise_evaluations": nf.evaluations,
              "noise_scale": est.scale, "equivalent_frequency_hz":
-                 float(s["equivalent_frequency"]), "model": settings["model"]}
-    return xr.Dataset(v, coords=c, attrs=attrs)
+                 float(settings["spectra"]["equivalent_frequency"]), "model": settings["model"]}
+    ds = template(lay, model, est, nf, len(sensors), settings["loads"], t[:2] - t[0], dt,
+                  settings["spectra"], attrs)
+    # the steady part is one stretch (between the start and end transients)
+    keep = (int(steady[0]), int(steady[-1]) + 1)
+    late = LATE_SPECTRA + (LATE_HOLDOUT if holdout else [])
+    kw = {"stage": "virtual", **(provenance or {})}
+    with io.block_writer(ds, len(t), out, late=late, **kw) as f:
+        ranges = _estimates(f, est, record, lay, t, keep, nf.noise.sensor_sd[len(sensors):],
+                            name)
+        _spectra(f, record, lay, keep, ranges, dt, settings["spectra"], name)
+    return Path(out)
+
+
+def _estimates(f: io.BlockFile, est: Estimate, record: xr.Dataset, lay: Layout, t: np.ndarray,
+               keep: tuple[int, int], holdout_sd: np.ndarray, name: str) -> np.ndarray:
+    """The smoother's pass: every variable on time written as its blocks come (the last
+    first), the held-out comparison set; returns each spectra signal's smallest and
+    largest value over the steady part (n_signals, 2)."""
+    ih = [lay.labels.index(h) for h in lay.holdout]
+    fit = HoldoutFit(Z95 * np.hypot(est.sd[ih], holdout_sd))
+    ranges = np.tile([np.inf, -np.inf], (len(lay.signals), 1))
+    blocks = -(-len(t) // BLOCK)
+    progress = Progress(log, f"{name}: smoother's pass, estimates written", blocks)
+    for done, (a, z) in enumerate(est.blocks(), 1):
+        b = a + len(z)
+        f.write("time", a, t[a:b] - t[0])
+        f.write("steady", a, est.steady[a:b].astype(np.int8))
+        f.write("estimate", a, z)
+        f.write("lower", a, z - Z95 * est.sd)
+        f.write("upper", a, z + Z95 * est.sd)
+        m = _columns(record, lay.holdout, "virtual.holdout", slice(a, b))
+        if lay.holdout:
+            f.write("holdout_measured", a, m)
+        k0, k1 = max(a, keep[0]) - a, min(b, keep[1]) - a
+        if k0 < k1:
+            if lay.holdout:
+                fit.add(m[k0:k1], z[k0:k1][:, ih])
+            x = _signals(record, lay, z[k0:k1], slice(a + k0, a + k1))
+            ranges[:, 0] = np.minimum(ranges[:, 0], x.min(axis=0))
+            ranges[:, 1] = np.maximum(ranges[:, 1], x.max(axis=0))
+        progress(done)
+    if lay.holdout:
+        for key, value in fit.result().items():
+            f.set(f"holdout_{key}", value)
+    return ranges
+
+
+def _signals(record: xr.Dataset, lay: Layout, z: np.ndarray, part: slice) -> np.ndarray:
+    """The spectra signals over ``part`` (n, n_signals): the measured ones from the
+    record, the estimated ones from their columns of ``z`` (the estimates over ``part``)."""
+    estimated = [lay.labels.index(x) for x in lay.signals if x not in lay.measured]
+    return np.hstack([_columns(record, lay.measured, "virtual.sensors", part),
+                      z[:, estimated]])
+
+
+def _spectra(f: io.BlockFile, record: xr.Dataset, lay: Layout, keep: tuple[int, int],
+             ranges: np.ndarray, dt: float, s: Mapping[str, Any], name: str) -> None:
+    """The load spectra's pass, forward over the steady part: the estimates read back
+    from ``f``, the measured torques from the record; the spectra set in ``f``."""
+    spec = [BlockSpectrum(lo, hi, s["bins"], dt) for lo, hi in ranges]
+    starts = range(keep[0], keep[1], BLOCK)
+    progress = Progress(log, f"{name}: load spectra of {len(spec)} torques, turning points",
+                        len(starts))
+    for done, a in enumerate(starts, 1):
+        b = min(a + BLOCK, keep[1])
+        x = _signals(record, lay, f.read("estimate", a, b), slice(a, b))
+        for k, sp in enumerate(spec):
+            sp.add(x[:, k])
+        progress(done)
+    out = {k: [] for k in LATE_SPECTRA}
+    for sp in spec:   # one signal's cycles at a time
+        r = sp.result(list(s["sn_slopes"]), s["equivalent_frequency"])
+        for key, value in zip(LATE_SPECTRA, (r.range_centre, r.cycle_count, r.level_centre,
+                                             r.time_at_level, r.del_), strict=True):
+            out[key].append(value)
+    for key, values in out.items():
+        f.set(key, np.array(values).reshape(len(spec), -1))
 
 
 def table_rows(ds: xr.Dataset, record: str) -> list[dict]:
