@@ -7,6 +7,7 @@ from __future__ import annotations
 import control
 import numpy as np
 import pytest
+from scipy import signal
 
 from gbpipe.errors import ConfigError, DataError
 from gbpipe.lti import fit_percent
@@ -20,6 +21,7 @@ from gbpipe.virtual import (
     gains,
     smooth,
 )
+from gbpipe.virtual.smoother import innovations
 from tests.virtual.chains import simulate_chain
 
 SENSORS = ["speed_first", "speed_last"]
@@ -186,3 +188,42 @@ def test_unknown_target_named_with_the_choices():
                          rec.dt)
     assert exc.value.field == "virtual.torques"
     assert "shaft0" in str(exc.value) and "n3" in str(exc.value)
+
+
+@pytest.mark.parametrize("block", [101, 257])
+def test_offsets_fit_in_blocks_equals_least_squares_over_every_sample(block):
+    """The GLS of the initial state and offsets, in blocks (the samples past the free
+    response's decay (250 samples) entering by their moments; the decay inside the
+    first or the third block), against a least-squares fit written out here: the innovations by scipy's
+    dlsim, the regressors of every sample by their recursion, numpy's lstsq. The residual
+    sum and the offsets agree."""
+    sensors = ["speed_first", "speed_last", "torque_first"]
+    rec = simulate_chain(2, n_disks=4, duration=3.0, sensors=tuple(sensors))
+    model = estimation_model(build_chain(rec.description), sensors, ["torque_shaft1"],
+                             ["n3"], rec.dt)
+    assert model.Gx.shape[1] >= 1   # offsets kept
+    noise = NoiseModel(np.array([0.05, 0.05, 0.5]), np.array([0.5]), np.array([300.0]), 0.5)
+    y = np.column_stack([rec.y[s] for s in sensors]) + [0.0, 0.0, 3.0]
+    u = rec.u_measured + 2.0
+    g = gains(model, noise)
+    theta, _, rss = innovations(model, g, y, u, block=block)
+    N, (n, nb), p = len(y), (len(model.A), model.Gx.shape[1]), y.shape[1]
+    A, C, K, Phi = model.A, model.C, g.K, g.Phi
+    # the free response decays (to 1e-10) well inside the record: the moments' path runs
+    rho = np.max(np.abs(np.linalg.eigvals(Phi)))
+    assert np.log(1e-10) / np.log(rho) < N / 4
+    AK = A @ K
+    W = np.linalg.inv(np.linalg.cholesky(g.S))
+    e0 = signal.dlsim((Phi, np.hstack([AK, model.B - AK @ model.D]), -C,
+                       np.hstack([np.eye(p), -model.D]), 1.0), np.hstack([y, u]))[1]
+    Gamma = model.Gx - AK @ model.Gy
+    R = np.empty((N, p, n + nb))
+    Ok, S = C.copy(), np.zeros((n, nb))
+    for k in range(N):
+        R[k] = np.hstack([Ok, model.Gy + C @ S])
+        S = Phi @ S + Gamma
+        Ok = Ok @ Phi
+    Rw, ew = (W @ R).reshape(N * p, -1), (e0 @ W.T).reshape(N * p)
+    sol = np.linalg.lstsq(Rw, ew, rcond=None)[0]
+    assert rss == pytest.approx(np.sum((ew - Rw @ sol) ** 2), rel=1e-6)
+    assert np.allclose(theta[n:], sol[n:], rtol=1e-4, atol=1e-6 * np.abs(sol[n:]).max())

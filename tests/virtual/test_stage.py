@@ -1,19 +1,27 @@
 """The virtual stage on the shaft-line example's chain (tests/measured/shaftline_bench.py:
 the project's closed loop, exact ZOH, 2 % sensor noise): the held-out torque meter before
 the gearbox estimated from the other signals; the load spectra against an independent
-count; refusals."""
+count; refusals.
+
+The stage runs in blocks of 1009 samples here (issue 47: the output written, the held-out
+comparison and the load spectra accumulated block by block; 12 blocks): the held-out
+comparison must equal lti.fit_percent and plain numpy on the whole steady part, the load
+spectra the rainflow library's count, numpy's histogram and the DEL formula on the whole
+series."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
+import rainflow
 import xarray as xr
 
 from gbpipe import io
 from gbpipe.config import load
 from gbpipe.errors import ConfigError
+from gbpipe.lti import fit_percent
 from gbpipe.measured import read
-from gbpipe.virtual import table_rows, virtual_record
+from gbpipe.virtual import Z95, stage, table_rows, virtual_record
 from tests.conftest import CONFIG, ROOT
 from tests.loads.test_spectra import four_point
 from tests.measured.shaftline_bench import write_bench
@@ -21,6 +29,8 @@ from tests.virtual.chains import simulate_chain
 from tests.workflow.cf_check import cf_findings
 
 EXAMPLE = ROOT / "config" / "examples" / "shaftline.yaml"
+#: Samples per block of the stage's passes in these tests.
+SMALL = 1009
 
 
 @pytest.fixture(scope="module")
@@ -30,13 +40,16 @@ def shaftline(tmp_path_factory):
     cfg = load(CONFIG, EXAMPLE, {"virtual": {"noise": {"window": [0.0, 3.0]}}})
     spec = cfg["measured"]["run1"]
     record = read(spec, folder, name="run1")
-    out = virtual_record(cfg["virtual"], {"drivetrain": cfg["drivetrain"]}, record, "run1",
-                         folder / "virtual.nc")
-    return cfg, truth, io.read(out)
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(stage, "BLOCK", SMALL)
+        out = virtual_record(cfg["virtual"], {"drivetrain": cfg["drivetrain"]}, record,
+                             "run1", folder / "virtual.nc")
+    assert record.sizes["time"] > 10 * SMALL
+    return cfg, truth, io.read(out), record
 
 
 def test_held_out_torque_meter(shaftline):
-    cfg, truth, ds = shaftline
+    cfg, truth, ds, _ = shaftline
     (row,) = table_rows(ds, "run1")
     assert row["signal"] == "torque_input"
     assert row["fit_percent"] >= 95.0
@@ -50,7 +63,7 @@ def test_held_out_torque_meter(shaftline):
 
 
 def test_spectra_of_a_measured_torque_equal_an_independent_count(shaftline):
-    cfg, truth, ds = shaftline
+    cfg, truth, ds, _ = shaftline
     k = list(ds.signal.values).index("torque_output")
     steady = ds.steady.values.astype(bool)
     # the spectra count the steady part (the estimates' transients left out)
@@ -63,6 +76,50 @@ def test_spectra_of_a_measured_torque_equal_an_independent_count(shaftline):
     assert float(ds["del"].values[k, s]) == pytest.approx(want, rel=1e-3)
     assert float(ds.time_at_level.values[k].sum()) == pytest.approx(len(x) / 2000.0,
                                                                     rel=1e-9)
+
+
+def test_holdout_comparison_equals_the_whole_steady_part(shaftline):
+    _, _, ds, _ = shaftline
+    k = ds.steady.values.astype(bool)
+    for i, h in enumerate(ds.holdout.values):
+        j = list(ds.target.values).index(h)
+        m, z = ds.holdout_measured.values[k, i], ds.estimate.values[k, j]
+        assert float(ds.holdout_fit_percent[i]) == pytest.approx(
+            fit_percent(m - m.mean(), z - z.mean())[0], rel=1e-10)
+        assert float(ds.holdout_fit_percent_with_mean[i]) == pytest.approx(
+            fit_percent(m, z)[0], rel=1e-10)
+        assert float(ds.holdout_rms_error[i]) == pytest.approx(
+            np.sqrt(np.mean((m - z) ** 2)), rel=1e-10)
+        half = Z95 * np.hypot(float(ds.estimate_sd[j]), float(ds.holdout_noise_sd[i]))
+        assert float(ds.holdout_coverage_95[i]) == np.mean(np.abs(m - z) <= half)
+
+
+def test_spectra_equal_the_library_on_the_whole_series(shaftline):
+    cfg, _, ds, record = shaftline
+    k = ds.steady.values.astype(bool)
+    dt = float(np.median(np.diff(ds.time.values)))
+    slopes = ds.sn_slope.values
+    bins = cfg["virtual"]["spectra"]["bins"]
+    sources = set()
+    for i, name in enumerate(ds.signal.values):
+        name = str(name)
+        sources.add(str(ds.signal_source.values[i]))
+        if ds.signal_source.values[i] == "measured":
+            x = record[name].values[k]
+        else:
+            x = ds.estimate.values[k, list(ds.target.values).index(name)]
+        pairs = rainflow.count_cycles(x)
+        ranges, counts = np.array(pairs).T
+        edges = np.linspace(0.0, ranges.max(), bins + 1)
+        assert np.allclose(ds.cycle_count.values[i],
+                           np.histogram(ranges, edges, weights=counts)[0], atol=1e-9), name
+        assert np.allclose(ds.cycle_range.values[i], 0.5 * (edges[1:] + edges[:-1]))
+        levels = np.linspace(x.min(), x.max(), bins + 1)
+        assert np.array_equal(ds.time_at_level.values[i], np.histogram(x, levels)[0] * dt)
+        n_eq = cfg["virtual"]["spectra"]["equivalent_frequency"] * len(x) * dt
+        want = [(np.sum(counts * ranges ** m) / n_eq) ** (1 / m) for m in slopes]
+        assert np.allclose(ds["del"].values[i], want, rtol=1e-12), name
+    assert sources == {"measured", "estimated"}
 
 
 def test_unknown_names_refused_by_key():
