@@ -3,8 +3,9 @@ estimate and 95 % band (a window of the steady part), every estimated target's b
 the load spectra of every measured and estimated torque (rainflow exceedance, time at
 level, damage-equivalent loads).
 
-Reads one ``virtual`` stage dataset (:func:`gbpipe.virtual.virtual_record`). See
-docs/virtual.md.
+Reads one ``virtual`` stage dataset (:func:`gbpipe.virtual.virtual_record`), best opened
+lazily: of the series on time only the window shown is read (an hour at 5 kHz holds
+3.9 GB of estimates and bands). See docs/virtual.md.
 """
 
 from __future__ import annotations
@@ -63,12 +64,12 @@ def fig_virtual(ds: xr.Dataset, stem: str | os.PathLike, caption: str | os.PathL
         ax = ax_of[f"t{r}"]
         j = [str(x) for x in ds.target.values].index(name)
         unit = str(ds.target_units.values[j])
-        ax.fill_between(t, ds.lower.values[w, j], ds.upper.values[w, j], color="C0",
+        ax.fill_between(t, ds.lower[w, j].values, ds.upper[w, j].values, color="C0",
                         alpha=0.3, lw=0, label="estimate, 95 % band")
-        ax.plot(t, ds.estimate.values[w, j], "C0", lw=1.0, label="estimate")
+        ax.plot(t, ds.estimate[w, j].values, "C0", lw=1.0, label="estimate")
         if name in holdout:
             i = holdout.index(name)
-            ax.plot(t, ds.holdout_measured.values[w, i], "k", lw=0.6,
+            ax.plot(t, ds.holdout_measured[w, i].values, "k", lw=0.6,
                     label="held-out measurement")
             fit = float(ds.holdout_fit_percent.values[i])
             cov = float(ds.holdout_coverage_95.values[i])
@@ -83,7 +84,7 @@ def fig_virtual(ds: xr.Dataset, stem: str | os.PathLike, caption: str | os.PathL
                                    float(ds.holdout_noise_sd.values[i]))
             err.fill_between(t, -half, half, color="C0", alpha=0.3, lw=0,
                              label="95 % band + sensor noise")
-            err.plot(t, ds.holdout_measured.values[w, i] - ds.estimate.values[w, j], "k",
+            err.plot(t, ds.holdout_measured[w, i].values - ds.estimate[w, j].values, "k",
                      lw=0.6, label="measurement − estimate")
             err.set(xlabel="time [s]", ylabel=f"[{unit}]")
             err.legend(loc="upper right", fontsize=6)

@@ -115,7 +115,7 @@ def virtual_record(settings: Mapping[str, Any], model_cfg: Mapping[str, Any],
                                             and s not in holdout]
     targets = target_names(chain, settings["torques"], settings["speeds"])
     targets += [h for h in holdout if h not in targets]
-    t = record.time.values.astype(float)
+    t = np.asarray(record.time.values, dtype=float)   # no copy of a float64 axis
     dt = float(np.median(np.diff(t)))
     model = estimation_model(chain, sensors, targets, settings["loads"], dt,
                              offsets=settings["offsets"])
@@ -171,6 +171,9 @@ def virtual_record(settings: Mapping[str, Any], model_cfg: Mapping[str, Any],
     with io.block_writer(ds, len(t), out, late=late, **kw) as f:
         ranges = _estimates(f, est, record, lay, t, keep, nf.noise.sensor_sd[len(sensors):],
                             name)
+        # the channels the smoother read, and the smoother, are no longer needed: their
+        # memory for the spectra's turning points
+        del est, y, u, t
         _spectra(f, record, lay, keep, ranges, dt, settings["spectra"], name)
     return Path(out)
 
@@ -183,7 +186,8 @@ def _estimates(f: io.BlockFile, est: Estimate, record: xr.Dataset, lay: Layout, 
     ih = [lay.labels.index(h) for h in lay.holdout]
     fit = HoldoutFit(Z95 * np.hypot(est.sd[ih], holdout_sd))
     ranges = np.tile([np.inf, -np.inf], (len(lay.signals), 1))
-    blocks = -(-len(t) // BLOCK)
+    # the smoother's blocks, and its first sample alone (Estimate.blocks)
+    blocks = len(range(0, len(t) - 1, BLOCK)) + 1
     progress = Progress(log, f"{name}: smoother's pass, estimates written", blocks)
     for done, (a, z) in enumerate(est.blocks(), 1):
         b = a + len(z)
