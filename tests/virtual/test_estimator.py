@@ -194,9 +194,9 @@ def test_unknown_target_named_with_the_choices():
 def test_offsets_fit_in_blocks_equals_least_squares_over_every_sample(block):
     """The GLS of the initial state and offsets, in blocks (the samples past the free
     response's decay (250 samples) entering by their moments; the decay inside the
-    first or the third block), against a least-squares fit written out here: the innovations by scipy's
-    dlsim, the regressors of every sample by their recursion, numpy's lstsq. The residual
-    sum and the offsets agree."""
+    first or the third block), against a least-squares fit written out here: the
+    innovations by scipy's dlsim, the regressors of every sample by their recursion,
+    numpy's lstsq. The residual sum and the offsets agree."""
     sensors = ["speed_first", "speed_last", "torque_first"]
     rec = simulate_chain(2, n_disks=4, duration=3.0, sensors=tuple(sensors))
     model = estimation_model(build_chain(rec.description), sensors, ["torque_shaft1"],
