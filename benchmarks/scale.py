@@ -14,8 +14,8 @@ measured workflow does not run, are timed by :func:`gbpipe.harmonics.method_resi
 a child process on the record the workflow read (its own ``getrusage``).
 
 The example's config includes the ``virtual`` stage (since the merge of branch ``virt``):
-it keeps the whole record's smoother states, 4.0 GB at 20 min, about 12 GB at 60 min
-(docs/cluster.md); mind the machine's memory before ``--minutes 60``.
+its filter, smoother and output run in blocks, 1.6 GB at 60 min (docs/cluster.md, "The
+virtual sensor"); ``--until virtual`` times it alone.
 
 For each stage the exponent ``p`` of ``cost ~ minutes**p`` is the least-squares slope of
 ``log cost`` on ``log minutes`` over the record lengths given (a stage under 2 s of CPU at

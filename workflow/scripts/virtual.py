@@ -13,12 +13,9 @@ p, i, record = snakemake.params, snakemake.input, snakemake.wildcards.record
 model = merge(p.model, read_yaml(i.overlay)) if "overlay" in i.keys() else p.model
 # lazy: only the channels the estimator reads are loaded, the held-out and measured
 # torques block by block; the output is written as the smoother makes it (hour-long records)
-out = virtual_record(p.virtual, model, io.read(i.record, lazy=True), record,
-                     snakemake.output.nc, signals=p.signals,
-                     provenance={"sources": i, "stage": snakemake.rule, "config": dict(p),
-                                 "wildcards": {"record": record},
-                                 "title": f"Virtual torque sensors of {record}: estimates, "
-                                          "95 % bands, load spectra"})
-ds = io.read(out, lazy=True)
-log.info("%s: %s; targets %s", record, ds.attrs["noise_source"],
-         ", ".join(map(str, ds.target.values)))
+virtual_record(p.virtual, model, io.read(i.record, lazy=True), record, snakemake.output.nc,
+               signals=p.signals,
+               provenance={"sources": i, "stage": snakemake.rule, "config": dict(p),
+                           "wildcards": {"record": record},
+                           "title": f"Virtual torque sensors of {record}: estimates, 95 % "
+                                    "bands, load spectra"})

@@ -175,6 +175,7 @@ def virtual_record(settings: Mapping[str, Any], model_cfg: Mapping[str, Any],
         # memory for the spectra's turning points
         del est, y, u, t
         _spectra(f, record, lay, keep, ranges, dt, settings["spectra"], name)
+    log.info("%s: %s; targets %s", name, attrs["noise_source"], ", ".join(labels))
     return Path(out)
 
 
