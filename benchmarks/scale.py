@@ -11,7 +11,8 @@ version (``identify.versions: [raw, tsa]``) and the fit, in its own results fold
 job logs its own peak RSS and CPU time at exit (``results/logs/``), Snakemake its wall
 (``results/benchmarks/``). With ``--removal`` the regression and VKF removals, which the
 measured workflow does not run, are timed by :func:`gbpipe.harmonics.method_residuals` in
-a child process on the record the workflow read (its own ``getrusage``).
+a child process on the record the workflow read (its own ``getrusage``; its log, with
+the progress and heartbeat lines, in ``results/logs/removal_<method>.log``).
 
 The example's config includes the ``virtual`` stage (since the merge of branch ``virt``):
 it keeps the whole record's smoother states, 4.0 GB at 20 min, about 12 GB at 60 min
@@ -78,10 +79,11 @@ import json, resource, sys, time
 import numpy as np
 from gbpipe import io
 from gbpipe.config import load
+io.setup_log(sys.argv[3])  # progress and heartbeat lines: the longest silence
 from gbpipe.harmonics import method_params, method_residuals, test_families
 from gbpipe.harmonics.stage import MODE_MIN_FREQUENCY
 from gbpipe.model.assembly import bench_ss
-cfg = load(*sys.argv[3:])
+cfg = load(*sys.argv[4:])
 rec = io.read(sys.argv[1])
 names = [n for n in rec.data_vars if "time" in rec[n].dims and n != "tacho"]
 fam = test_families(cfg)
@@ -241,14 +243,15 @@ def run_workflow(work: Path, minutes: float, fs: float, jobs: int, removal: bool
     wall = time.perf_counter() - t
     costs = stage_costs(results)
     for method in ("regression", "vkf") if removal else ():
+        log = results / "logs" / f"removal_{method}.log"
         out = subprocess.run([sys.executable, "-c", _REMOVAL_CHILD,
-                              str(results / "measured" / "run1.nc"), method,
+                              str(results / "measured" / "run1.nc"), method, str(log),
                               str(ROOT / "config" / "config.yaml"), str(EXAMPLE),
                               str(cfg_file)],
                              capture_output=True, text=True, check=True)
         r = json.loads(out.stdout.strip().splitlines()[-1])
         costs[f"removal_{method}*"] = {"jobs": 1, "wall_s": r["wall_s"], "cpu_s": r["cpu_s"],
-                                       "rss_mb": r["rss_mb"], "silence_s": float("nan")}
+                                       "rss_mb": r["rss_mb"], "silence_s": longest_silence(log)}
     return {"minutes": minutes, "workflow_wall_s": wall, "stages": costs}
 
 
@@ -275,7 +278,7 @@ def main() -> None:
     ap.add_argument("--removal", action="store_true",
                     help="also time the regression and VKF removals of every signal (not "
                          "workflow stages of a bench record; VKF: about 40 s of CPU per "
-                         "minute of record, 1.4 GB at 6 min)")
+                         "minute of record, in pieces of 2^19 samples: docs/cluster.md)")
     ap.add_argument("--until", nargs="+", metavar="RULE",
                     help="run only these rules and those they need (e.g. virtual)")
     args = ap.parse_args()

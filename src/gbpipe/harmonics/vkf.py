@@ -40,6 +40,19 @@ Cholesky loses the digits a -60 dB removal needs, so narrower bandwidths are ref
 rounding error lies in the fast envelope directions that the structural equation damps:
 iterative refinement changed the removal by < 5 dB at > 90 dB on the test sweeps, at
 twice the cost, so it is not done.
+
+Pieces. A record longer than :data:`PIECE` and two margins is removed in overlapping
+pieces (:func:`gbpipe.harmonics.pieces.by_pieces`): the memory is that of a piece
+(:data:`PIECE`) instead of the record's (~12 GB at 60 min at 5 kHz), and every order's
+phasors stay cached (:data:`PHASOR_CACHE_BYTES`; recomputed, they cost more than the
+solves). A piece solves (1) truncated at its ends; a cut changes the solution near it
+as ``rho^m`` after ``m`` samples, ``rho`` the modulus of the filter's slowest pole, the root of
+``1 + w (2 - z - 1/z)^s`` nearest the unit circle (:func:`envelope_margin`). The margin is
+where that falls to ``tol``, below what the passes leave unconverged anyway, plus two
+revolutions: 8300 samples (1.7 s) at 1 Hz, 5 kHz, ``s = 2`` (``rho = 1 - 1.1e-3``), 1 %
+more work on pieces of 2^21 samples. With the phasors kept, most of the work is LAPACK's
+banded triangular sweeps (``zpbtrs``), one complex solve per order and pass
+(docs/cluster.md, "Regression and VKF removal").
 """
 
 from __future__ import annotations
@@ -65,15 +78,17 @@ log = logging.getLogger(__name__)
 MAX_CONDITION = 1e14
 
 #: Bytes of order phasors (cosine and sine) kept between backfitting passes: a pass over
-#: one order recomputes them otherwise, about 40 % of its time. 128 MB holds every order
-#: of a test record (13 orders of 90 000 samples: 19 MB), the first 6 of the 1.2 M
-#: sample sweep and the first 15 of a :data:`PIECE` with its margins.
-PHASOR_CACHE_BYTES = 128 * 2**20
+#: an order whose phasors are not kept recomputes them, two trigonometric calls per
+#: sample that take 2.5 times the order's banded solve (numpy's cos and sin of angles up
+#: to 1e7 rad). 512 MB keeps every order of a test record, of the 1.2 M sample sweep
+#: and of a 6-min bench record (13 orders), and 15 orders of a :data:`PIECE`.
+PHASOR_CACHE_BYTES = 512 * 2**20
 
-#: Samples kept from one piece of a long record (1.7 min at 5 kHz; module notes,
-#: "Pieces"): a piece holds about 30 arrays of its length (the orders' waveforms, the
-#: cached phasors, the factor, the work arrays), 0.2 GB for 13 orders.
-PIECE = 1 << 19
+#: Samples kept from one piece of a long record (7 min at 5 kHz; module notes,
+#: "Pieces"): every record of the default and CI runs is removed whole, as before. A
+#: piece holds about 60 arrays of its length for 13 orders (the orders' waveforms, their
+#: phasors, the factor and its complex copy, the work arrays): 1 GB.
+PIECE = 1 << 21
 
 
 def structural_weight(bandwidth: np.ndarray | float, fs: float,
