@@ -44,8 +44,7 @@ twice the cost, so it is not done.
 Pieces. A record longer than :data:`PIECE` and two margins is removed in overlapping
 pieces (:func:`gbpipe.harmonics.pieces.by_pieces`): the memory is that of a piece
 (:data:`PIECE`) instead of the record's (~12 GB at 60 min at 5 kHz), and every order's
-phasors stay cached (:data:`PHASOR_CACHE_BYTES`; recomputed, they cost more than the
-solves). A piece solves (1) truncated at its ends; a cut changes the solution near it
+phasors stay cached (:data:`PHASOR_CACHE_BYTES`; recomputed, they cost almost a solve). A piece solves (1) truncated at its ends; a cut changes the solution near it
 as ``rho^m`` after ``m`` samples, ``rho`` the modulus of the filter's slowest pole, the root of
 ``1 + w (2 - z - 1/z)^s`` nearest the unit circle (:func:`envelope_margin`). The margin is
 where that falls to ``tol``, below what the passes leave unconverged anyway, plus two
@@ -78,10 +77,11 @@ log = logging.getLogger(__name__)
 MAX_CONDITION = 1e14
 
 #: Bytes of order phasors (cosine and sine) kept between backfitting passes: a pass over
-#: an order whose phasors are not kept recomputes them, two trigonometric calls per
-#: sample that take 2.5 times the order's banded solve (numpy's cos and sin of angles up
-#: to 1e7 rad). 512 MB keeps every order of a test record, of the 1.2 M sample sweep
-#: and of a 6-min bench record (13 orders), and 15 orders of a :data:`PIECE`.
+#: an order whose phasors are not kept recomputes them, 24 ns per sample against its
+#: banded solve's 30 and the rest of its update's 10 (numpy's cos and sin). 512 MB keeps
+#: every order of a test record, of the 1.2 M sample sweep and of a 6-min bench record
+#: (13 orders; 128 MB kept 4 there, and 1 at 20 min: 40 % more work), and 15 orders of a
+#: :data:`PIECE`.
 PHASOR_CACHE_BYTES = 512 * 2**20
 
 #: Samples kept from one piece of a long record (7 min at 5 kHz; module notes,
