@@ -43,15 +43,16 @@ twice the cost, so it is not done.
 
 Pieces. A record longer than :data:`PIECE` and two margins is removed in overlapping
 pieces (:func:`gbpipe.harmonics.pieces.by_pieces`): the memory is that of a piece
-(:data:`PIECE`) instead of the record's (~12 GB at 60 min at 5 kHz), and every order's
-phasors stay cached (:data:`PHASOR_CACHE_BYTES`; recomputed, they cost almost a solve). A piece solves (1) truncated at its ends; a cut changes the solution near it
-as ``rho^m`` after ``m`` samples, ``rho`` the modulus of the filter's slowest pole, the root of
-``1 + w (2 - z - 1/z)^s`` nearest the unit circle (:func:`envelope_margin`). The margin is
-where that falls to ``tol``, below what the passes leave unconverged anyway, plus two
+instead of the record's (~12 GB at 60 min at 5 kHz), and every order's phasors stay
+cached (:data:`PHASOR_CACHE_BYTES`; recomputed, they cost almost a solve). A piece solves
+(1) truncated at its ends; a cut changes the solution near it as ``rho^m`` after ``m``
+samples, ``rho`` the modulus of the filter's slowest pole, the root of
+``1 + w (2 - z - 1/z)^s`` nearest the unit circle (:func:`envelope_margin`). The margin
+is where that falls to ``tol``, below what the passes leave unconverged anyway, plus two
 revolutions: 8300 samples (1.7 s) at 1 Hz, 5 kHz, ``s = 2`` (``rho = 1 - 1.1e-3``), 1 %
-more work on pieces of 2^21 samples. With the phasors kept, most of the work is LAPACK's
-banded triangular sweeps (``zpbtrs``), one complex solve per order and pass
-(docs/cluster.md, "Regression and VKF removal").
+more work on pieces of 2^21 samples. Most of the work is LAPACK's banded triangular
+sweeps (``zpbtrs``), one complex solve per order and pass (docs/removal.md, "Hour-long
+records").
 """
 
 from __future__ import annotations
