@@ -117,3 +117,9 @@ def test_regression_in_pieces_removes_as_the_whole_record_within_the_noise_it_fi
     for r in (whole, pieces):
         left = (r - (x - h))[inner]
         assert np.sqrt(np.mean(left ** 2)) <= 1.5 * sigma * np.sqrt(per_sample)
+    # channels as columns (time first) are cut as one record: each column's residual is
+    # the one it has alone, and the fit is linear (twice the record, twice the residual)
+    two = residual_regression(np.column_stack([x, 2 * x]), FS, pulses, ORDERS,
+                              knot_spacing=h_knot, piece=piece)
+    np.testing.assert_allclose(two[:, 0], pieces, rtol=0, atol=1e-9 * np.abs(x).max())
+    np.testing.assert_allclose(two[:, 1], 2 * pieces, rtol=0, atol=1e-9 * np.abs(x).max())

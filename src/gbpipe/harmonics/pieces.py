@@ -101,7 +101,7 @@ def by_pieces(x: np.ndarray, fs: float, pulse_times: np.ndarray, margin: int,
         The residual, in the unit of ``x``.
     """
     piece = max(int(piece), 4 * margin)
-    n = x.size
+    n = x.shape[0]
     if n <= piece + 2 * margin:
         return remove(x, pulse_times, t0)
     out = np.empty_like(x)

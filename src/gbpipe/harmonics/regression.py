@@ -29,10 +29,10 @@ faster than their envelope follows are fitted on both angles.
 
 Pieces. With B-splines, a record longer than ``piece`` (default 2^22 samples, 14 min at
 5 kHz) and two margins is fitted in overlapping pieces (:func:`by_pieces`): its arrays
-are held per piece. A spline fit forgets a change of
-the data by ``|lambda|`` per knot (:meth:`AmplitudeBasis.reach`; 0.535 for cubics), a
-modal carrier its start in ``1 / (zeta 2 pi f_n)``: the margin
-(:func:`regression_margin`) is where both have fallen to :data:`PIECE_DECAY`. A piece has
+are held per piece. A spline fit forgets a change of the data by ``|lambda|`` per knot
+(:meth:`AmplitudeBasis.reach`; 0.535 for cubics), a modal carrier its start in
+``1 / (zeta 2 pi f_n)``: the margin (:func:`regression_margin`) is where both have fallen
+to :data:`PIECE_DECAY`. A piece has
 knots of its own (uniform over it) and, with ``modes``, carrier coefficients of its own (a
 constant excitation estimated per piece): it fits the noise near each order with other
 functions than the whole record: the residuals differ by that, within twice the noise a
