@@ -187,7 +187,7 @@ def envelope_margin(weight: float, filter_order: int, decay: float) -> int:
         ``ceil(log(decay) / log(rho))`` samples.
     """
     s = filter_order
-    # (2 - z - 1/z)^s = -1/w: s values u of 2 - z - 1/z, each the sum of a reciprocal
+    # (2 - z - 1/z)^s = -1/w: s values u of 2 - z - 1/z, each giving a reciprocal
     # pair of poles, z^2 - (2 - u) z + 1 = 0; in u, not as one polynomial in z, whose
     # coefficients ~w would bury the poles' distance from 1 (~w^(-1/2s)) in rounding
     u = weight ** (-1.0 / s) * np.exp(1j * np.pi * (2 * np.arange(s) + 1) / s)
