@@ -280,8 +280,8 @@ def main() -> None:
     ap.add_argument("--json", type=Path, help="also write the measurements here")
     ap.add_argument("--removal", action="store_true",
                     help="also time the regression and VKF removals of every signal (not "
-                         "workflow stages of a bench record; VKF: about 40 s of CPU per "
-                         "minute of record, in pieces of 2^19 samples: docs/cluster.md)")
+                         "workflow stages of a bench record; VKF: about 4 s of CPU per "
+                         "signal and minute of record: docs/cluster.md)")
     ap.add_argument("--removal-signals", type=int, default=0, metavar="N",
                     help="time the removals on the first N signals only (0: all; the VKF "
                          "takes them one at a time, the same work each)")
