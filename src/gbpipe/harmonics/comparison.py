@@ -324,8 +324,8 @@ def method_residuals(record: xr.Dataset | Sequence[xr.Dataset], names: Sequence[
     progress = Progress(log, f"{what}: {len(names)} signals", len(groups))
     out: list[xr.Dataset] = []
     for k, group in enumerate(groups, 1):
-        part = split_residuals([record] if isinstance(record, xr.Dataset) else record, group,
-                               remove, lowest, keep_below, what)
+        part = split_residuals(record, group, remove, lowest, keep_below, what)  # as given:
+        part = [part] if isinstance(part, xr.Dataset) else part  # a list stacks a copy
         out = [o.assign(p.data_vars) for o, p in zip(out, part, strict=True)] if out else part
         progress(k, ", ".join(group))
     for ds in out:
