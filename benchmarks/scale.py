@@ -11,7 +11,8 @@ version (``identify.versions: [raw, tsa]``) and the fit, in its own results fold
 job logs its own peak RSS and CPU time at exit (``results/logs/``), Snakemake its wall
 (``results/benchmarks/``). With ``--removal`` the regression and VKF removals, which the
 measured workflow does not run, are timed by :func:`gbpipe.harmonics.method_residuals` in
-a child process on the record the workflow read (its own ``getrusage``).
+a child process on the record the workflow read (its own ``getrusage``; its log, with
+the progress and heartbeat lines, in ``results/logs/removal_<method>.log``).
 
 The example's config includes the ``virtual`` stage (since the merge of branch ``virt``):
 its filter, smoother and output run in blocks, 1.6 GB at 60 min (docs/cluster.md, "The
@@ -23,7 +24,7 @@ the longest record is dominated by its imports and is marked ``floor``). The lar
 between two lines of a job's log is its silence: a stage over 10 s must stay under 10 s.
 
 Usage: ``PYTHONPATH=$PWD/src python benchmarks/scale.py [--minutes 6 20 60] [--fs 5000]
-[--work /tmp/gbpipe_scale] [--jobs 2] [--removal] [--until RULE ..]
+[--work /tmp/gbpipe_scale] [--jobs 2] [--removal [--removal-signals N]] [--until RULE ..]
 [--json FILE]``
 """
 
@@ -78,12 +79,14 @@ import json, resource, sys, time
 import numpy as np
 from gbpipe import io
 from gbpipe.config import load
+io.setup_log(sys.argv[3])  # progress and heartbeat lines: the longest silence
 from gbpipe.harmonics import method_params, method_residuals, test_families
 from gbpipe.harmonics.stage import MODE_MIN_FREQUENCY
 from gbpipe.model.assembly import bench_ss
-cfg = load(*sys.argv[3:])
+cfg = load(*sys.argv[5:])
 rec = io.read(sys.argv[1])
 names = [n for n in rec.data_vars if "time" in rec[n].dims and n != "tacho"]
+names = names[:int(sys.argv[4])] if int(sys.argv[4]) else names
 fam = test_families(cfg)
 # the chain's closed-loop modes (the regression's modal envelope), as envelope_modes keeps
 lam = np.linalg.eigvals(bench_ss(cfg).A)
@@ -217,9 +220,10 @@ def longest_silence(log: Path) -> float:
 
 
 def run_workflow(work: Path, minutes: float, fs: float, jobs: int, removal: bool,
-                 until: list[str] | None = None) -> dict:
+                 until: list[str] | None = None, removal_signals: int = 0) -> dict:
     """Write one record (unless its folder holds it), run the workflow on it (every rule,
-    or with ``until`` only those rules and what they need), return the stage costs."""
+    or with ``until`` only those rules and what they need), return the stage costs;
+    ``removal_signals``: the removals on that many signals (0: all)."""
     folder = work / f"{minutes:g}min"
     t = time.perf_counter()
     spec_file = folder / "bench" / "spec.json"
@@ -241,14 +245,16 @@ def run_workflow(work: Path, minutes: float, fs: float, jobs: int, removal: bool
     wall = time.perf_counter() - t
     costs = stage_costs(results)
     for method in ("regression", "vkf") if removal else ():
+        log = results / "logs" / f"removal_{method}.log"
         out = subprocess.run([sys.executable, "-c", _REMOVAL_CHILD,
-                              str(results / "measured" / "run1.nc"), method,
+                              str(results / "measured" / "run1.nc"), method, str(log),
+                              str(removal_signals),
                               str(ROOT / "config" / "config.yaml"), str(EXAMPLE),
                               str(cfg_file)],
                              capture_output=True, text=True, check=True)
         r = json.loads(out.stdout.strip().splitlines()[-1])
         costs[f"removal_{method}*"] = {"jobs": 1, "wall_s": r["wall_s"], "cpu_s": r["cpu_s"],
-                                       "rss_mb": r["rss_mb"], "silence_s": float("nan")}
+                                       "rss_mb": r["rss_mb"], "silence_s": longest_silence(log)}
     return {"minutes": minutes, "workflow_wall_s": wall, "stages": costs}
 
 
@@ -274,15 +280,18 @@ def main() -> None:
     ap.add_argument("--json", type=Path, help="also write the measurements here")
     ap.add_argument("--removal", action="store_true",
                     help="also time the regression and VKF removals of every signal (not "
-                         "workflow stages of a bench record; VKF: about 40 s of CPU per "
-                         "minute of record, 1.4 GB at 6 min)")
+                         "workflow stages of a bench record; VKF: about 4 s of CPU per "
+                         "signal and minute of record: docs/cluster.md)")
+    ap.add_argument("--removal-signals", type=int, default=0, metavar="N",
+                    help="time the removals on the first N signals only (0: all; the VKF "
+                         "takes them one at a time, the same work each)")
     ap.add_argument("--until", nargs="+", metavar="RULE",
                     help="run only these rules and those they need (e.g. virtual)")
     args = ap.parse_args()
     rows = []
     for minutes in args.minutes:
         rows.append(run_workflow(args.work, minutes, args.fs, args.jobs, args.removal,
-                                 args.until))
+                                 args.until, args.removal_signals))
         r = rows[-1]
         print(f"\n{minutes:g} min at {args.fs:g} Hz: workflow {r['workflow_wall_s']:.0f} s wall")
         print(f"{'stage':32} {'jobs':>4} {'wall s':>8} {'CPU s':>8} {'RSS MB':>8} "

@@ -22,6 +22,7 @@ Removal beyond TSA (issue 16):
 ==================  =====================================================================
 ``removal_inputs``  checked inputs shared by the methods below
 ``vkf``             Vold-Kalman order tracking filter, second generation, joint orders
+``amplitude_basis`` the regression's amplitude basis in time, and its fit's reach
 ``regression``      angle-domain least-squares regression, slowly varying amplitudes
                     (and the swept modal response of orders crossing a mode)
 ``crossings``       order/mode crossings: half-power bands, swept modal carriers, marks
@@ -34,10 +35,10 @@ Removal beyond TSA (issue 16):
                     (``removal``, ``removal_table``), and on the tests (``removal_tests``)
 ==================  =====================================================================
 
-Imports only numpy, scipy, xarray and gbpipe's kinematics, units and errors, and (in
-``stage`` and ``comparison``) the record contract of :mod:`gbpipe.io` (the measured form
-of a signal, the tacho shaft's mean speed, the longest gap-free piece): never the bench
-model or the simulator, so that it runs unchanged on measured records.
+Imports only numpy, scipy, xarray and gbpipe's kinematics, units, errors and progress
+lines, and (in ``stage`` and ``comparison``) the record contract of :mod:`gbpipe.io` (the
+measured form of a signal, the tacho shaft's mean speed, the longest gap-free piece):
+never the bench model or the simulator, so that it runs unchanged on measured records.
 """
 
 from gbpipe.harmonics.angle import AngleMap, resample_to_angle, resample_to_time

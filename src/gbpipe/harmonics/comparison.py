@@ -7,17 +7,16 @@ by the exact separation metric.
   of the second line-carrying shaft against the tachometer's, from the record's speeds);
 * :func:`compare_method` -- rule ``removal``: one method on the sweep and on its known
   harmonic part (its wall time and memory logged), and
-  :func:`gbpipe.harmonics.separation_metrics` against
-  the random-only sweep;
+  :func:`gbpipe.harmonics.separation_metrics` against the random-only sweep;
 * :func:`removal_rows` -- rule ``removal_table``: one row per method x family x rpm bin x
   band;
 * :func:`method_residuals` -- rule ``removal_tests``: the measured-like signals of a test
-  after one method, for identification (the version named after the method), and
+  after one method (one signal at a time but for the regression), for identification
+  (the version named after the method), and
   :func:`record_separation`, the same exact metric on them against the random-only test.
 
 The random-only sweep is the same simulation with every excitation amplitude at zero
-(:func:`gbpipe.simulate.random_only`), so ``sweep - random_only`` is the harmonic part,
-exactly.
+(:func:`gbpipe.simulate.random_only`): ``sweep - random_only`` is the harmonic part.
 """
 
 from __future__ import annotations
@@ -40,6 +39,7 @@ from gbpipe.harmonics.separation import separation_metrics
 from gbpipe.harmonics.shaft_angles import shaft_twist
 from gbpipe.harmonics.stage import envelope_modes, split_residuals, watched_modes
 from gbpipe.io import longest_segment, measured_signal
+from gbpipe.progress import Progress
 
 __all__ = ["method_params", "record_params", "compare_method", "removal_rows", "method_residuals",
            "harmonic_record", "record_separation"]
@@ -301,8 +301,7 @@ def method_residuals(record: xr.Dataset | Sequence[xr.Dataset], names: Sequence[
     angle_record : xarray.Dataset, optional
         The record whose measured speeds give the regression's second angle
         (:func:`record_params`; default ``record``, the first one): the record itself
-        when ``record`` is its harmonic part (:func:`harmonic_record`), whose speeds are
-        no speeds.
+        when ``record`` is its harmonic part (:func:`harmonic_record`, no speeds).
 
     Returns
     -------
@@ -318,12 +317,20 @@ def method_residuals(record: xr.Dataset | Sequence[xr.Dataset], names: Sequence[
     def remove(x: np.ndarray, fs: float, pulses: np.ndarray, ppr: int) -> np.ndarray:
         return remove_harmonics(method, x, fs, pulses, families, ppr, **run)
 
-    lowest = min(float(o) for orders in families.values() for o in orders)
-    out = split_residuals(record, names, remove, lowest, keep_below,
-                          f"{method} removal of {', '.join(families)}")
-    for ds in [out] if isinstance(out, xr.Dataset) else out:
+    lowest, what = (min(float(o) for orders in families.values() for o in orders),
+                    f"{method} removal of {', '.join(families)}")
+    # multichannel: the channels at once (shared regressors), else one by one (memory)
+    groups = [list(names)] if method in MULTICHANNEL else [[name] for name in names]
+    progress = Progress(log, f"{what}: {len(names)} signals", len(groups))
+    out: list[xr.Dataset] = []
+    for k, group in enumerate(groups, 1):
+        part = split_residuals(record, group, remove, lowest, keep_below, what)  # as given:
+        part = [part] if isinstance(part, xr.Dataset) else part  # a list stacks a copy
+        out = [o.assign(p.data_vars) for o, p in zip(out, part, strict=True)] if out else part
+        progress(k, ", ".join(group))
+    for ds in out:
         ds.attrs.update(method=method, families=" ".join(families), params=repr(dict(params)))
-    return out
+    return out[0] if isinstance(record, xr.Dataset) else out
 
 
 def harmonic_record(record: xr.Dataset, random_only: xr.Dataset,

@@ -25,13 +25,28 @@ import numpy as np
 
 from gbpipe.progress import Progress
 
-__all__ = ["PIECE", "by_pieces", "block_margin"]
+__all__ = ["PIECE", "by_pieces", "block_margin", "slowest_revolution"]
 
 log = logging.getLogger(__name__)
 
 #: Samples kept from one piece (14 min at 5 kHz): the joint TSA of a piece and its
 #: margins holds about 0.5 GB.
 PIECE = 1 << 22
+
+
+def slowest_revolution(pulse_times: np.ndarray, pulses_per_rev: int) -> float:
+    """Longest revolution of the tacho shaft in ``pulse_times`` [s] (0 without two pulses):
+    the widest pulse spacing times the pulses per revolution.
+
+    Parameters
+    ----------
+    pulse_times : ndarray
+        Tacho pulse times [s].
+    pulses_per_rev : int
+        Pulses per revolution of the tacho shaft.
+    """
+    spacing = np.diff(np.asarray(pulse_times, dtype=float))
+    return float(spacing.max()) * pulses_per_rev if spacing.size else 0.0
 
 
 def block_margin(pulse_times: np.ndarray, pulses_per_rev: int, fs: float,
@@ -52,21 +67,20 @@ def block_margin(pulse_times: np.ndarray, pulses_per_rev: int, fs: float,
     n_cycles : int
         Cycles per averaging block.
     """
-    spacing = np.diff(pulse_times)
-    rev = float(spacing.max()) * pulses_per_rev if spacing.size else 0.0   # s
+    rev = slowest_revolution(pulse_times, pulses_per_rev)                   # s
     longest = rev / min(float(c) for c in cycle_orders)                      # s per cycle
     return int(np.ceil((n_cycles * longest + rev) * fs))
 
 
 def by_pieces(x: np.ndarray, fs: float, pulse_times: np.ndarray, margin: int,
               remove: Callable[[np.ndarray, np.ndarray, float], np.ndarray],
-              piece: int = PIECE) -> np.ndarray:
+              piece: int = PIECE, t0: float = 0.0) -> np.ndarray:
     """``remove`` of ``x`` in overlapping pieces.
 
     Parameters
     ----------
-    x : ndarray, shape (n,)
-        Record, sample ``i`` at ``i / fs`` [s] (any unit).
+    x : ndarray, shape (n, ...)
+        Record, sample ``i`` (along the first axis) at ``t0 + i / fs`` [s] (any unit).
     fs : float
         Sample rate [Hz].
     pulse_times : ndarray
@@ -78,16 +92,18 @@ def by_pieces(x: np.ndarray, fs: float, pulse_times: np.ndarray, margin: int,
         sample is at ``t0`` [s], of its shape.
     piece : int
         Samples kept from each piece (at least four margins).
+    t0 : float
+        Time of the first sample [s].
 
     Returns
     -------
-    ndarray, shape (n,)
+    ndarray, shape of ``x``
         The residual, in the unit of ``x``.
     """
     piece = max(int(piece), 4 * margin)
-    n = x.size
+    n = x.shape[0]
     if n <= piece + 2 * margin:
-        return remove(x, pulse_times, 0.0)
+        return remove(x, pulse_times, t0)
     out = np.empty_like(x)
     starts = range(0, n, piece)
     progress = Progress(log, f"removal in {len(starts)} pieces of {piece} samples",
@@ -95,7 +111,8 @@ def by_pieces(x: np.ndarray, fs: float, pulse_times: np.ndarray, margin: int,
     for k, a in enumerate(starts, 1):
         b = min(a + piece, n)
         lo, hi = max(a - margin, 0), min(b + margin, n)
-        inside = (pulse_times >= lo / fs) & (pulse_times <= (hi - 1) / fs)
-        out[a:b] = remove(x[lo:hi], pulse_times[inside], lo / fs)[a - lo:b - lo]
+        start, end = t0 + lo / fs, t0 + (hi - 1) / fs
+        inside = (pulse_times >= start) & (pulse_times <= end)
+        out[a:b] = remove(x[lo:hi], pulse_times[inside], start)[a - lo:b - lo]
         progress(k)
     return out

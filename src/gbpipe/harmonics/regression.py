@@ -26,6 +26,17 @@ order and mode: a dense border of the banded normal equations, eliminated by its
 complement. With ``twist`` (a second line-carrying shaft's angle against the
 tachometer's, :mod:`gbpipe.harmonics.shaft_angles`) the orders whose phase the twist moves
 faster than their envelope follows are fitted on both angles.
+
+Pieces. With B-splines, a record longer than ``piece`` (default 2^22 samples, 14 min at
+5 kHz) and two margins is fitted in overlapping pieces (:func:`by_pieces`): its arrays
+are held per piece. A spline fit forgets a change of the data by ``|lambda|`` per knot
+(:meth:`AmplitudeBasis.reach`; 0.535 for cubics), a modal carrier its start in
+``1 / (zeta 2 pi f_n)``: the margin (:func:`regression_margin`) is where both have fallen
+to :data:`PIECE_DECAY`. A piece has
+knots of its own (uniform over it) and, with ``modes``, carrier coefficients of its own (a
+constant excitation estimated per piece): it fits the noise near each order with other
+functions than the whole record: the residuals differ by that, within twice the noise a
+fit takes. A Legendre basis is global: always fitted whole.
 """
 
 from __future__ import annotations
@@ -34,92 +45,28 @@ from collections.abc import Collection, Iterator, Mapping, Sequence
 from typing import Literal
 
 import numpy as np
-from scipy.interpolate import BSpline, make_lsq_spline
 from scipy.linalg import cho_solve_banded, cholesky_banded
 
+from gbpipe.harmonics.amplitude_basis import AmplitudeBasis
 from gbpipe.harmonics.checks import as_count, as_positive, as_signal
 from gbpipe.harmonics.crossings import as_modes, crossing_pairs, modal_carriers
+from gbpipe.harmonics.pieces import PIECE, by_pieces, slowest_revolution
 from gbpipe.harmonics.removal_inputs import Families, removal_inputs
 from gbpipe.harmonics.shaft_angles import checked_twist, second_lines
 from gbpipe.harmonics.tacho import AngleMethod
 
-__all__ = ["AmplitudeBasis", "family_groups", "residual_regression"]
+__all__ = ["AmplitudeBasis", "PIECE_DECAY", "family_groups", "regression_margin",
+           "residual_regression"]
+
+#: What a piece's cut leaves of its change on the kept samples [-]: -80 dB, below the
+#: -60 dB at which a removal is judged (docs/removal.md)
+PIECE_DECAY = 1e-4
 
 #: Tikhonov weight of each modal carrier's coefficient, relative to the carrier's power
 BORDER_RIDGE = 1e-6
 #: Bytes of modal-carrier columns kept from the accumulation for the subtraction pass
 #: (the carriers' exponentials and recursions are about half of a regression's time)
 BORDER_CACHE_BYTES = 128 * 2**20
-
-
-class AmplitudeBasis:
-    """Basis in time of the slowly varying harmonic amplitudes.
-
-    Parameters
-    ----------
-    t_start, t_end : float
-        Span of the record [s].
-    kind : {"bspline", "legendre"}
-        Cubic (or ``degree``) B-splines on uniform knots, or Legendre polynomials.
-    knot_spacing : float
-        Distance between knots [s] (B-splines only).
-    degree : int
-        Spline degree, or the highest Legendre degree.
-
-    Attributes
-    ----------
-    size : int
-        Number of basis functions.
-    support : int
-        Basis functions that can be non-zero at one time (bandwidth of the normal
-        equations, in functions).
-    breaks : numpy.ndarray
-        Times [s] where the set of non-zero functions changes (knots).
-    """
-
-    def __init__(self, t_start: float, t_end: float, kind: str, knot_spacing: float,
-                 degree: int) -> None:
-        if kind not in ("bspline", "legendre"):
-            raise ValueError(f"basis must be 'bspline' or 'legendre'; got {kind!r}")
-        self.kind, self.degree = kind, degree
-        self.t_start, self.t_end = t_start, t_end
-        if kind == "bspline":
-            n_int = max(1, int(np.ceil((t_end - t_start) / knot_spacing)))
-            inner = np.linspace(t_start, t_end, n_int + 1)
-            self.knots = np.r_[[t_start] * degree, inner, [t_end] * degree]
-            self.size = self.knots.size - degree - 1
-            self.support = degree + 1
-            self.breaks = inner[1:-1]
-        else:
-            self.size = self.support = degree + 1
-            self.breaks = np.empty(0)
-
-    def values(self, t: np.ndarray) -> tuple[np.ndarray, int]:
-        """Values (len(t), support) of the functions non-zero on ``t``, and the index of
-        the first; ``t`` must lie within one knot interval (B-splines)."""
-        if self.kind == "legendre":
-            u = 2.0 * (t - self.t_start) / (self.t_end - self.t_start) - 1.0
-            return np.polynomial.legendre.legvander(u, self.degree), 0
-        tc = np.clip(t, self.t_start, self.t_end)
-        # the interval of the earliest sample: functions first .. first + degree are the
-        # non-zero ones on it (at t_end, the last interval's)
-        interval = np.searchsorted(self.knots, tc.min(), side="right") - 1
-        first = int(np.clip(interval - self.degree, 0, self.size - self.support))
-        # those functions alone, by scipy's compiled de Boor with coefficients that select
-        # them; BSpline.design_matrix gives the same values but checks its input with
-        # Python's min/max over every sample (4 ms for a block of 8192 samples)
-        pick = np.zeros((self.size, self.support))
-        pick[first + np.arange(self.support), np.arange(self.support)] = 1.0
-        return BSpline(self.knots, pick, self.degree, extrapolate=False)(tc), first
-
-    def unfollowed(self, t: np.ndarray, y: np.ndarray) -> np.ndarray:
-        """``y`` minus its least-squares fit in the basis: what an amplitude in this basis
-        cannot follow of a phase ``y(t)`` (unit of ``y``)."""
-        if self.kind == "legendre":
-            u = 2.0 * (t - self.t_start) / (self.t_end - self.t_start) - 1.0
-            return y - np.polynomial.legendre.legval(
-                u, np.polynomial.legendre.legfit(u, y, self.degree))
-        return y - make_lsq_spline(t, y, self.knots, self.degree)(t)
 
 
 def _blocks(times: np.ndarray, breaks: np.ndarray, block: int) -> np.ndarray:
@@ -165,6 +112,39 @@ def _carriers(angles: Sequence[np.ndarray], fs: float, modes: np.ndarray,
         yield np.concatenate([next(g) for g in gens], axis=1) if gens else np.empty((0, 0))
 
 
+def regression_margin(knot_spacing: float | Mapping[str, float], degree: int,
+                      modes: Sequence[Sequence[float]] | None, pulse_times: np.ndarray,
+                      pulses_per_rev: int, fs: float) -> int:
+    """Samples on each side of a piece of a long record (module notes, "Pieces").
+
+    The spline fit's reach (:meth:`AmplitudeBasis.reach` of :data:`PIECE_DECAY`) at the
+    coarsest knot spacing; the modal carriers' memory, ``log(1 / PIECE_DECAY)`` time
+    constants ``1 / (zeta 2 pi f_n)`` of the slowest-decaying mode (a piece's carrier
+    starts in the steady state, the record's carries the sweep's history); whichever is
+    longer, and two revolutions at the slowest speed (the same pulses either side of
+    every kept sample).
+
+    Parameters
+    ----------
+    knot_spacing, degree, modes, pulses_per_rev
+        As :func:`residual_regression`.
+    pulse_times : ndarray
+        Tacho pulse times [s].
+    fs : float
+        Sample rate [Hz].
+    """
+    spacings = (list(knot_spacing.values()) if isinstance(knot_spacing, Mapping)
+                else [knot_spacing])
+    longest = max(as_positive(h, "knot_spacing", "s") for h in spacings)     # s
+    reach = longest * AmplitudeBasis(0.0, 1.0, "bspline", 1.0,
+                                     as_count(degree, "degree")).reach(PIECE_DECAY)
+    if modes is not None and len(modes):
+        m = as_modes(modes)
+        reach = max(reach, float(np.log(1 / PIECE_DECAY) / (2 * np.pi * m[:, 0] * m[:, 1]).min()))
+    rev = slowest_revolution(pulse_times, pulses_per_rev)
+    return int(np.ceil((reach + 2 * rev) * fs))
+
+
 def family_groups(families: Families, spacing: Mapping[str, float]
                   ) -> list[tuple[float, dict]]:
     """Families grouped by their knot spacing [s], finest first.
@@ -202,7 +182,7 @@ def residual_regression(x: np.ndarray, fs: float, pulse_times: np.ndarray,
                         twist_families: Collection[str] | None = None,
                         twist_phase: float = 0.1,
                         block: int = 8192, t0: float = 0.0,
-                        method: AngleMethod = "pchip") -> np.ndarray:
+                        method: AngleMethod = "pchip", piece: int = PIECE) -> np.ndarray:
     """Remove order families by joint least-squares regression on the shaft angle.
 
     Parameters
@@ -265,6 +245,8 @@ def residual_regression(x: np.ndarray, fs: float, pulse_times: np.ndarray,
         broadband response.
     block : int
         Samples per block of the normal-equation accumulation (memory per block).
+    piece : int
+        Samples per piece of a long record (B-splines; :func:`regression_margin`).
 
     Returns
     -------
@@ -284,16 +266,34 @@ def residual_regression(x: np.ndarray, fs: float, pulse_times: np.ndarray,
         Unknown basis, non-positive knot spacing, ridge or mode reach, or modes that are
         not (frequency > 0, 0 < damping ratio < 1) pairs.
     """
+    xa = np.asarray(x, dtype=float)
+    axis = 1 if xa.ndim == 3 else 0  # time
+    if basis == "bspline" and np.isfinite(xa).all():  # (else the checks below raise)
+        margin = regression_margin(knot_spacing, degree, modes, pulse_times,
+                                   pulses_per_rev, fs)
+        if xa.shape[axis] > max(piece, 4 * margin) + 2 * margin:
+            twist = None if twist is None else np.asarray(twist, dtype=float)
+
+            def one(part: np.ndarray, pulses: np.ndarray, start: float) -> np.ndarray:
+                lo = int(round((start - t0) * fs))  # of the piece's first sample
+                return np.moveaxis(residual_regression(
+                    np.moveaxis(part, 0, axis), fs, pulses, families, pulses_per_rev,
+                    basis=basis, knot_spacing=knot_spacing, degree=degree, ridge=ridge,
+                    modes=modes, mode_reach=mode_reach, modal_families=modal_families,
+                    twist=None if twist is None else twist[lo:lo + part.shape[0]],
+                    twist_families=twist_families, twist_phase=twist_phase, block=block,
+                    t0=start, method=method, piece=part.shape[0]), axis, 0)
+            return np.moveaxis(by_pieces(np.moveaxis(xa, axis, 0), fs, np.asarray(
+                pulse_times, dtype=float), margin, one, piece, t0), 0, axis)
     if isinstance(knot_spacing, Mapping):
-        out = np.asarray(x, dtype=float)
+        out = xa
         for spacing, group in family_groups(families, knot_spacing):
             out = residual_regression(
                 out, fs, pulse_times, group, pulses_per_rev, basis=basis, knot_spacing=spacing,
                 degree=degree, ridge=ridge, modes=modes, mode_reach=mode_reach,
                 modal_families=modal_families, twist=twist, twist_families=twist_families,
-                twist_phase=twist_phase, block=block, t0=t0, method=method)
+                twist_phase=twist_phase, block=block, t0=t0, method=method, piece=piece)
         return out
-    xa = np.asarray(x, dtype=float)
     if xa.ndim not in (1, 2, 3):
         raise ValueError(f"x must be (n,), (n, channels) or (records, n, channels): {xa.shape}")
     # (records, n, channels): every record's channels share the regressors and the factor

@@ -40,6 +40,19 @@ Cholesky loses the digits a -60 dB removal needs, so narrower bandwidths are ref
 rounding error lies in the fast envelope directions that the structural equation damps:
 iterative refinement changed the removal by < 5 dB at > 90 dB on the test sweeps, at
 twice the cost, so it is not done.
+
+Pieces. A record longer than :data:`PIECE` and two margins is removed in overlapping
+pieces (:func:`gbpipe.harmonics.pieces.by_pieces`): the memory is that of a piece
+instead of the record's (~12 GB at 60 min at 5 kHz), and every order's phasors stay
+cached (:data:`PHASOR_CACHE_BYTES`; recomputed, they cost almost a solve). A piece solves
+(1) truncated at its ends; a cut changes the solution near it as ``rho^m`` after ``m``
+samples, ``rho`` the modulus of the filter's slowest pole, the root of
+``1 + w (2 - z - 1/z)^s`` nearest the unit circle (:func:`envelope_margin`). The margin
+is where that falls to ``tol``, below what the passes leave unconverged anyway, plus two
+revolutions: 8300 samples (1.7 s) at 1 Hz, 5 kHz, ``s = 2`` (``rho = 1 - 1.1e-3``), 1 %
+more work on pieces of 2^21 samples. Most of the work is LAPACK's banded triangular
+sweeps (``zpbtrs``), one complex solve per order and pass (docs/removal.md, "Hour-long
+records").
 """
 
 from __future__ import annotations
@@ -51,11 +64,13 @@ import numpy as np
 from scipy.linalg import cho_solve_banded, cholesky_banded
 from scipy.special import comb
 
-from gbpipe.harmonics.checks import as_count, as_positive
+from gbpipe.harmonics.checks import as_count, as_positive, as_signal
+from gbpipe.harmonics.pieces import by_pieces, slowest_revolution
 from gbpipe.harmonics.removal_inputs import Families, removal_inputs
 from gbpipe.harmonics.tacho import AngleMethod
+from gbpipe.progress import Progress
 
-__all__ = ["structural_weight", "EnvelopeFilter", "residual_vkf"]
+__all__ = ["PIECE", "structural_weight", "envelope_margin", "EnvelopeFilter", "residual_vkf"]
 
 log = logging.getLogger(__name__)
 
@@ -63,10 +78,18 @@ log = logging.getLogger(__name__)
 MAX_CONDITION = 1e14
 
 #: Bytes of order phasors (cosine and sine) kept between backfitting passes: a pass over
-#: one order recomputes them otherwise, about 40 % of its time. 128 MB holds every order
-#: of a test record (13 orders of 90 000 samples: 19 MB) and the first 6 of the 1.2 M
-#: sample sweep.
-PHASOR_CACHE_BYTES = 128 * 2**20
+#: an order whose phasors are not kept recomputes them, 24 ns per sample against its
+#: banded solve's 30 and the rest of its update's 10 (numpy's cos and sin). 512 MB keeps
+#: every order of a test record, of the 1.2 M sample sweep and of a 6-min bench record
+#: (13 orders; 128 MB kept 4 there, and 1 at 20 min: 40 % more work), and 15 orders of a
+#: :data:`PIECE`.
+PHASOR_CACHE_BYTES = 512 * 2**20
+
+#: Samples kept from one piece of a long record (7 min at 5 kHz; module notes,
+#: "Pieces"): every record of the default and CI runs is removed whole, as before. A
+#: piece holds about 60 arrays of its length for 13 orders (the orders' waveforms, their
+#: phasors, the factor and its complex copy, the work arrays): 1 GB.
+PIECE = 1 << 21
 
 
 def structural_weight(bandwidth: np.ndarray | float, fs: float,
@@ -141,11 +164,43 @@ class EnvelopeFilter:
         return cho_solve_banded((factor, True), b, overwrite_b=overwrite, check_finite=False)
 
 
+def envelope_margin(weight: float, filter_order: int, decay: float) -> int:
+    """Samples over which a change of (1) at a cut fades to ``decay`` of its size.
+
+    Away from the record ends the envelope is the response of the zero-phase filter whose
+    poles are the roots of ``1 + w (2 - z - 1/z)^s``; the one nearest the unit circle,
+    ``|z| = rho < 1``, sets how far a cut (a piece's end, where the system is truncated)
+    reaches into the solution: as ``rho^m`` after ``m`` samples.
+
+    Parameters
+    ----------
+    weight : float
+        The largest structural weight ``w`` of the record [-] (narrowest bandwidth).
+    filter_order : int
+        Difference order ``s``.
+    decay : float
+        Share of the cut's change left at the margin's end [-], 0 < decay < 1.
+
+    Returns
+    -------
+    int
+        ``ceil(log(decay) / log(rho))`` samples.
+    """
+    s = filter_order
+    # (2 - z - 1/z)^s = -1/w: s values u of 2 - z - 1/z, each giving a reciprocal
+    # pair of poles, z^2 - (2 - u) z + 1 = 0; in u, not as one polynomial in z, whose
+    # coefficients ~w would bury the poles' distance from 1 (~w^(-1/2s)) in rounding
+    u = weight ** (-1.0 / s) * np.exp(1j * np.pi * (2 * np.arange(s) + 1) / s)
+    root = np.sqrt(u * (u - 4.0))
+    rho = float(np.minimum(np.abs(2.0 - u + root), np.abs(2.0 - u - root)).max()) / 2.0
+    return int(np.ceil(np.log(decay) / np.log(rho)))
+
+
 def residual_vkf(x: np.ndarray, fs: float, pulse_times: np.ndarray, families: Families,
                  pulses_per_rev: int = 1, *, bandwidth: float = 1.0,
                  bandwidth_unit: Literal["Hz", "order"] = "Hz", filter_order: int = 2,
                  max_iter: int = 20, tol: float = 1e-4, t0: float = 0.0,
-                 method: AngleMethod = "pchip") -> np.ndarray:
+                 method: AngleMethod = "pchip", piece: int = PIECE) -> np.ndarray:
     """Remove order families with a second-generation Vold-Kalman filter.
 
     Parameters
@@ -169,6 +224,9 @@ def residual_vkf(x: np.ndarray, fs: float, pulse_times: np.ndarray, families: Fa
         Stop when a pass changes the residual by less than ``tol`` times the norm of the
         harmonics found (1e-4: the residual has settled to -80 dB of them overall; see
         the module notes for what a bin keeps).
+    piece : int
+        Samples per piece of a long record (:func:`gbpipe.harmonics.pieces.by_pieces`;
+        module notes, "Pieces").
 
     Returns
     -------
@@ -177,10 +235,12 @@ def residual_vkf(x: np.ndarray, fs: float, pulse_times: np.ndarray, families: Fa
 
     Raises
     ------
+    DataError
+        ``x`` is not one channel of finite samples.
     ValueError
         Bad bandwidth or unit, or a bandwidth too narrow for float64 at this ``fs``.
     """
-    rec, _, orders = removal_inputs(x, fs, pulse_times, families, pulses_per_rev, t0, method)
+    x = as_signal(x, "x")  # every sample, before the pieces' long work
     bandwidth = as_positive(bandwidth, "bandwidth", bandwidth_unit)
     if bandwidth_unit not in ("Hz", "order"):
         raise ValueError(f"bandwidth_unit must be 'Hz' or 'order'; got {bandwidth_unit!r}")
@@ -188,6 +248,28 @@ def residual_vkf(x: np.ndarray, fs: float, pulse_times: np.ndarray, families: Fa
     if s > 4:
         raise ValueError(f"filter_order must be 1 to 4; got {s}")
     max_iter = as_count(max_iter, "max_iter")
+    tol = as_positive(tol, "tol", "relative units")
+    pulse_times = np.asarray(pulse_times, dtype=float)
+    rev = slowest_revolution(pulse_times, pulses_per_rev)  # s
+    # the slowest pole: the narrowest bandwidth in Hz (in orders: at the slowest speed)
+    narrowest = bandwidth if bandwidth_unit == "Hz" or rev == 0 else bandwidth / rev
+    # a cut's change fades below the tolerance the passes stop at; two revolutions more
+    # keep every kept sample between the same pulses as in the whole record (the angle's
+    # pchip slopes use one pulse either side)
+    margin = (envelope_margin(float(structural_weight(narrowest, fs, s)), s, min(tol, 0.5))
+              + int(np.ceil(2 * rev * fs)))
+
+    def one(part: np.ndarray, pulses: np.ndarray, start: float) -> np.ndarray:
+        return _backfit(part, fs, pulses, families, pulses_per_rev, bandwidth,
+                        bandwidth_unit, s, max_iter, tol, start, method)
+    return by_pieces(x, fs, pulse_times, margin, one, piece, t0)
+
+
+def _backfit(x: np.ndarray, fs: float, pulse_times: np.ndarray, families: Families,
+             pulses_per_rev: int, bandwidth: float, bandwidth_unit: str, s: int,
+             max_iter: int, tol: float, t0: float, method: AngleMethod) -> np.ndarray:
+    """:func:`residual_vkf` of one piece (checked arguments)."""
+    rec, _, orders = removal_inputs(x, fs, pulse_times, families, pulses_per_rev, t0, method)
     y = rec.x[rec.span]
     n = y.size
     if bandwidth_unit == "Hz":
@@ -207,10 +289,12 @@ def residual_vkf(x: np.ndarray, fs: float, pulse_times: np.ndarray, families: Fa
     # target as one complex column that the banded solver overwrites.
     target, new, buf, cos_work, sin_work = (np.empty(n) for _ in range(5))
     rhs = np.empty((n, 1), dtype=complex)
+    progress = Progress(log, f"Vold-Kalman backfitting of {orders.size} envelopes over "
+                        f"{n} samples", max_iter)
     # the phasors of the first orders, kept between passes (PHASOR_CACHE_BYTES)
     kept = min(orders.size - 1, PHASOR_CACHE_BYTES // (16 * n))
     phasors: dict[int, tuple[np.ndarray, np.ndarray]] = {}
-    for _ in range(max_iter):
+    for done in range(1, max_iter + 1):
         before = r.copy()
         for k, o in enumerate(orders):
             np.add(r, waves[k], out=target)
@@ -246,6 +330,7 @@ def residual_vkf(x: np.ndarray, fs: float, pulse_times: np.ndarray, families: Fa
         change = float(np.linalg.norm(r - before)) / max(found, np.finfo(float).tiny)
         if change <= tol:
             break
+        progress(done, f"residual change {change:.2g}")
     else:
         log.warning("Vold-Kalman backfitting stopped after max_iter = %d passes with the "
                     "residual still changing by %.2g of the harmonics found (tol %.2g): "
