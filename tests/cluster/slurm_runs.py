@@ -22,6 +22,7 @@ from pathlib import Path
 from slurm_local import LocalSlurm
 
 from tests.conftest import ROOT
+from tests.workflow.runs import snakemake_env
 
 #: The repository's SLURM profile (what a user runs).
 PROFILE = ROOT / "profiles" / "slurm"
@@ -123,7 +124,9 @@ class RetryRun(SlurmRun):
         work.mkdir()
         self.cancelled: list[int] = []
         self._done = threading.Event()
-        super().__init__(cluster, work, dict(os.environ), "--snakefile", str(RETRY_SNAKEFILE),
+        # this checkout's src first on PYTHONPATH: the retry Snakefile reads its resources
+        # with workflow/lib/jobresources.py, which imports gbpipe, from a folder without it
+        super().__init__(cluster, work, snakemake_env(ROOT), "--snakefile", str(RETRY_SNAKEFILE),
                          "--keep-going", *args)
         self._watcher = threading.Thread(target=self._scancel_first_attempt, args=(cluster,),
                                          daemon=True)

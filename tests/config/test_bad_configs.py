@@ -9,7 +9,6 @@ Snakemake runs in a temporary directory holding links to the Snakefile, ``workfl
 from __future__ import annotations
 
 import json
-import os
 import subprocess
 import sys
 from pathlib import Path
@@ -20,6 +19,7 @@ from bad_configs import CASES
 
 from gbpipe.config import load
 from gbpipe.errors import ConfigError
+from tests.workflow.runs import snakemake_env
 
 HERE = Path(__file__).resolve().parent
 ROOT = HERE.parents[1]
@@ -56,9 +56,11 @@ def snakemake_runs(tmp_path_factory):
         cases.append({"dir": str(d), "argv": ["-n", "--cores", "1", "--configfile",
                                               "config/ci.yaml", "bad.yaml"]})
     (base / "cases.json").write_text(json.dumps(cases))
-    env = {**os.environ, "OMP_NUM_THREADS": "1"}
+    # this checkout's src first on PYTHONPATH (the batch script's folder, not the
+    # repository's, is first on its sys.path): the gbpipe tested is this one, not whichever
+    # is installed
     subprocess.run([sys.executable, str(HERE / "snakemake_batch.py"), str(base / "cases.json"),
-                    str(base / "codes.json")], check=True, env=env,
+                    str(base / "codes.json")], check=True, env=snakemake_env(ROOT),
                    timeout=3600)  # a hang guard only: ~70 dry runs on a loaded machine
     codes = json.loads((base / "codes.json").read_text())
     return {cid: (code, (base / cid / "stderr").read_text() + (base / cid / "stdout").read_text(),
@@ -82,7 +84,7 @@ def test_batch_runner_equals_the_snakemake_command(snakemake_runs, tmp_path):
     (tmp_path / "bad.yaml").write_text(yaml.safe_dump(overlay))
     run = subprocess.run(["snakemake", "-n", "--cores", "1", "--configfile", "config/ci.yaml",
                           "bad.yaml"], cwd=tmp_path, capture_output=True, text=True,
-                         timeout=1800)  # a hang guard only
+                         env=snakemake_env(ROOT), timeout=1800)  # a hang guard only
     assert (run.returncode != 0) == (snakemake_runs[cid][0] != 0)
     # Snakemake logs its error to stdout or stderr depending on its log handler: both count
     assert f"config field '{field}'" in run.stdout + run.stderr

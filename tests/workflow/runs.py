@@ -1,6 +1,6 @@
 """Scratch copies of the repository and Snakemake runs in them (the workflow and cluster
-tests; the shared complete runs are the session fixtures ``ci_run`` and ``measured_run`` of
-tests/conftest.py).
+tests; the shared runs are the session fixtures ``ci_run``, ``measured_run`` and
+``study_run`` of tests/conftest.py, built once per session in the background).
 
 Every workflow test runs Snakemake in a copy (what a fresh clone holds), with that copy's
 ``src`` first on ``PYTHONPATH``, under the usual umask 022. Tests that change files change

@@ -16,6 +16,7 @@ import numpy as np
 import pytest
 
 from gbpipe.io.runlog import PEAK_LINE, job_resources
+from tests.workflow.runs import snakemake_env
 
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT / "workflow" / "lib"))
@@ -197,8 +198,10 @@ def _job(log: Path, allocate_mb: int, **popen) -> tuple[float, float]:
     """Run a job that sets up its log and holds ``allocate_mb`` MB; what it logged."""
     code = ("import sys, numpy as np\nfrom gbpipe.io import setup_log\n"
             "setup_log(sys.argv[1])\nx = np.ones(int(sys.argv[2]) * 125_000)\n")
+    # this checkout's src first on PYTHONPATH, as a job's (the working directory is the
+    # log's folder, where no gbpipe is)
     subprocess.run([sys.executable, "-c", code, str(log), str(allocate_mb)], check=True,
-                   capture_output=True, cwd=log.parent, **popen)
+                   capture_output=True, cwd=log.parent, env=snakemake_env(ROOT), **popen)
     return job_resources(log)
 
 
