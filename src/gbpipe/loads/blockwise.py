@@ -26,6 +26,7 @@ import numpy as np
 from gbpipe.loads.spectra import (
     Cycles,
     damage_equivalent_load,
+    finite_signal,
     load_duration,
     rainflow_cycles,
     range_histogram,
@@ -117,9 +118,7 @@ class BlockSpectrum:
         ValueError
             ``x`` is not finite.
         """
-        x = np.asarray(x, dtype=float)
-        if not np.all(np.isfinite(x)):
-            raise ValueError("the signal holds NaN or inf: rainflow needs a finite series")
+        x = finite_signal(x)
         # samples per level (whole numbers, summed exactly), times dt at the end
         self._at_level += load_duration(x, 1.0, self.level_edges)
         self._turns.append(turning_points(x))

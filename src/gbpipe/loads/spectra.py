@@ -23,7 +23,7 @@ import numpy as np
 import rainflow
 
 __all__ = ["Cycles", "rainflow_cycles", "damage_equivalent_load", "load_duration",
-           "range_histogram"]
+           "range_histogram", "finite_signal"]
 
 
 @dataclass
@@ -43,6 +43,20 @@ class Cycles:
     count: np.ndarray
 
 
+def finite_signal(x: np.ndarray) -> np.ndarray:
+    """``x`` as float64, refused if it holds NaN or inf (rainflow counts finite series).
+
+    Raises
+    ------
+    ValueError
+        ``x`` is not finite.
+    """
+    x = np.asarray(x, dtype=float)
+    if not np.all(np.isfinite(x)):
+        raise ValueError("the signal holds NaN or inf: rainflow needs a finite series")
+    return x
+
+
 def rainflow_cycles(x: np.ndarray) -> Cycles:
     """Rainflow cycles of ``x`` (ASTM E1049-85, the ``rainflow`` library).
 
@@ -56,9 +70,7 @@ def rainflow_cycles(x: np.ndarray) -> Cycles:
     ValueError
         ``x`` is not finite.
     """
-    x = np.asarray(x, dtype=float)
-    if not np.all(np.isfinite(x)):
-        raise ValueError("the signal holds NaN or inf: rainflow needs a finite series")
+    x = finite_signal(x)
     # straight into one (k, 3) array: a list of k tuples would hold ~150 B per cycle
     c = np.fromiter((cyc[:3] for cyc in rainflow.extract_cycles(x)),
                     dtype=np.dtype((float, 3)))
