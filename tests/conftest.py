@@ -4,15 +4,24 @@ share.
 
 The shared runs are built in the background from the end of collection on (`SharedRuns`),
 one after the other, for those the selected tests use: their Snakemake jobs go on beside
-the tests that run first (mostly one core's work), and a test waits for its run's end
-(never for a time).
+the tests that run first, and a test waits for its run's end (never for a time).
+
+The suite runs on pytest-xdist workers (``-n auto --dist loadgroup`` in pyproject.toml):
+every test that reads a shared run or the local SLURM is in one group (`RUNS_GROUP`), which
+one worker runs first, so that each run is built, and the cluster started, once; the other
+tests go to the workers module by module (`xdist_group`), so that a module's fixtures are
+built once. ``-n 0`` runs the whole suite in one process as before.
 
 Imports sit in the fixtures: the thread settings below must precede numpy's import."""
 
 from __future__ import annotations
 
+import fcntl
 import os
+import tempfile
 import threading
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from pathlib import Path
 
 import pytest
@@ -24,10 +33,19 @@ ROOT = Path(__file__).resolve().parents[1]
 CONFIG = ROOT / "config" / "config.yaml"
 CI_CONFIG = ROOT / "config" / "ci.yaml"
 EXAMPLE = ROOT / "config" / "examples" / "gearbox_1planetary_2parallel.yaml"
-#: Held around every apt-get of the session: the cluster tests' SLURM install runs in a
-#: background thread (tests/cluster/conftest.py) beside the tests, and two apt-get at once
-#: fail on dpkg's lock.
-APT_LOCK = threading.Lock()
+
+
+@contextmanager
+def apt_lock() -> Iterator[None]:
+    """Held around every apt-get of the session: the cluster tests' SLURM install runs in
+    a background thread (tests/cluster/conftest.py) beside the tests, and two apt-get at
+    once fail on dpkg's lock. A file lock: it holds across threads and xdist workers."""
+    with open(Path(tempfile.gettempdir()) / "gbpipe-tests-apt.lock", "w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        try:
+            yield
+        finally:
+            fcntl.flock(lock, fcntl.LOCK_UN)
 
 
 @pytest.fixture(scope="session")
@@ -144,12 +162,56 @@ class SharedRuns:
 _SHARED: list[SharedRuns] = []
 
 
-def _order(item: pytest.Item) -> tuple[bool, bool]:
+#: The xdist group of every test that reads a shared run or the local SLURM.
+RUNS_GROUP = "shared runs and SLURM"
+
+
+def _in_cluster(item: pytest.Item) -> bool:
+    return Path(item.path).resolve().is_relative_to(ROOT / "tests" / "cluster")
+
+
+def reads_a_run(item: pytest.Item) -> bool:
+    """Whether the test reads a shared run (`BUILDERS`) or the local SLURM."""
+    return _in_cluster(item) or any(n in item.fixturenames for n in BUILDERS)
+
+
+def distributed(config: pytest.Config) -> bool:
+    """Whether the session runs on pytest-xdist workers grouped by `xdist_group` (a
+    worker's own ``dist`` is "no"; xdist marks it with ``loadgroup``)."""
+    option = config.option
+    return getattr(option, "dist", "no") == "loadgroup" or getattr(option, "loadgroup", False)
+
+
+def xdist_group(item: pytest.Item) -> str | None:
+    """The test's xdist group: `RUNS_GROUP`; else the home (module, or folder of a
+    conftest.py) of the widest module- or session-scoped fixture it uses, so that such a
+    fixture is built by one worker only; else none (the test may go to any worker).
+
+    The fixtures of this conftest.py (configurations: cheap, built by every worker) and of
+    plugins (``tmp_path_factory``) do not count."""
+    if reads_a_run(item):
+        return RUNS_GROUP
+    own = Path(__file__).parent.relative_to(ROOT).as_posix()
+    # pytest has no public map from a test to its fixtures' definitions
+    homes = [defs[-1].baseid for defs in item._fixtureinfo.name2fixturedefs.values()
+             if defs[-1].scope != "function" and defs[-1].baseid not in ("", own)]
+    return min(homes, key=len) if homes else None
+
+
+def pytest_itemcollected(item):
+    group = xdist_group(item) if distributed(item.config) else None
+    if group is not None:   # before xdist's own hook, which reads the mark
+        item.add_marker(pytest.mark.xdist_group(group))
+
+
+def _order(item: pytest.Item) -> tuple[bool, bool, bool]:
+    # under xdist, the tests that read a run first: their group is then the first unit of
+    # work, sent to a worker at once, which starts the runs' builds and the cluster at once
+    first = not (distributed(item.config) and reads_a_run(item))
     # the cluster tests last (their SLURM runs, started in the background by
     # tests/cluster/conftest.py, go on beside every other test), and before them, the tests
     # that read a shared run after those that do not (its build goes on beside them)
-    cluster = Path(item.path).resolve().is_relative_to(ROOT / "tests" / "cluster")
-    return cluster, any(n in item.fixturenames for n in BUILDERS)
+    return first, _in_cluster(item), any(n in item.fixturenames for n in BUILDERS)
 
 
 @pytest.hookimpl(trylast=True)   # after the deselection (-k, -m) of the other plugins
@@ -165,10 +227,31 @@ def tests_will_run(session: pytest.Session) -> bool:
                                        or option.continue_on_collection_errors)
 
 
+#: Background starts that wait for this worker's first test of `RUNS_GROUP`.
+_DEFERRED: list[Callable[[], None]] = []
+
+
+def start_in_background(session: pytest.Session, start: Callable[[], None]) -> None:
+    """Call ``start`` (which starts work in a background thread) now, or under xdist when
+    this worker sets up its first test of `RUNS_GROUP`: only that worker needs the runs."""
+    if distributed(session.config):
+        _DEFERRED.append(start)
+    else:
+        start()
+
+
+@pytest.hookimpl(tryfirst=True)
+def pytest_runtest_setup(item):
+    if _DEFERRED and reads_a_run(item):
+        while _DEFERRED:
+            _DEFERRED.pop(0)()
+
+
 def pytest_collection_finish(session):
     names = [n for n in BUILDERS if any(n in item.fixturenames for item in session.items)]
     if names and tests_will_run(session):
-        _SHARED.append(SharedRuns(names, session_tmp_path_factory(session)))
+        factory = session_tmp_path_factory(session)
+        start_in_background(session, lambda: _SHARED.append(SharedRuns(names, factory)))
 
 
 def pytest_sessionfinish(session):

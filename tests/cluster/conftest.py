@@ -26,9 +26,10 @@ from slurm_local import LocalSlurm, SlurmUnavailable, install
 from slurm_runs import MEMORY, RetryRun, SlurmRun
 
 from tests.conftest import (
-    APT_LOCK,
     STUDY_CONFIGS,
+    apt_lock,
     session_tmp_path_factory,
+    start_in_background,
     study_targets,
     tests_will_run,
 )
@@ -52,7 +53,7 @@ class Background:
 
     def _start(self) -> None:
         try:
-            with APT_LOCK:
+            with apt_lock():
                 TIMINGS["install"] = install()
             self.cluster = LocalSlurm(self.tmp.mktemp("slurm"))
             TIMINGS.update(self.cluster.start())
@@ -82,12 +83,24 @@ def pytest_collection_finish(session):
     names = sorted({n for item in session.items
                     for mark in item.iter_markers("slurm_runs") for n in mark.args})
     if names and tests_will_run(session):
-        _BACKGROUND.append(Background(names, session_tmp_path_factory(session)))
+        factory = session_tmp_path_factory(session)
+        start_in_background(session, lambda: _BACKGROUND.append(Background(names, factory)))
 
 
 def pytest_sessionfinish(session):
     while _BACKGROUND:
         _BACKGROUND.pop().stop()
+    if hasattr(session.config, "workeroutput"):   # an xdist worker: the summary's figures
+        session.config.workeroutput["slurm_summary"] = {"timings": TIMINGS, "memory": MEMORY}
+
+
+@pytest.hookimpl(optionalhook=True)   # an xdist hook: unknown under -p no:xdist
+def pytest_testnodedown(node, error):
+    # xdist's controller: the figures of the worker that ran the cluster tests
+    summary = getattr(node, "workeroutput", {}).get("slurm_summary")
+    if summary:
+        TIMINGS.update(summary["timings"])
+        MEMORY.update({rule: tuple(v) for rule, v in summary["memory"].items()})
 
 
 def _background() -> Background:

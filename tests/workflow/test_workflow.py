@@ -26,7 +26,7 @@ from playwright.sync_api import sync_playwright
 
 import gbpipe
 from gbpipe import io
-from tests.conftest import APT_LOCK
+from tests.conftest import apt_lock
 from tests.workflow.cf_check import cf_findings_of_files
 from tests.workflow.runs import ROOT, snakemake
 
@@ -135,7 +135,7 @@ def chromium() -> str:
     path = shutil.which("chromium")
     if path is None:
         env = {"DEBIAN_FRONTEND": "noninteractive", "PATH": "/usr/sbin:/usr/bin:/sbin:/bin"}
-        with APT_LOCK:   # the SLURM install may be running in the background
+        with apt_lock():   # the SLURM install may be running in the background
             for cmd in (["apt-get", "update", "-qq"],
                         ["apt-get", "install", "-y", "-qq", "chromium"]):
                 proc = subprocess.run(cmd, capture_output=True, text=True, env=env)
