@@ -237,15 +237,9 @@ class SubspaceModel:
                 "y", f"y must have shape ({ua.shape[0]}, {self.n_outputs}) to match u and "
                 f"the model, got {ya.shape}"
             )
-        return self._segment(ua, ya)[0]
-
-    def _segment(self, ua: np.ndarray, ya: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        # least-squares x0 of one record and its simulation from it: the forced response
-        # (from x0 = 0) plus the free response of x0, so one simulation serves both
-        forced = dlsim(self.A, self.B, self.C, self.D, ua)
-        stop, pinv, free = self.x0_solver(ua.shape[0])
-        x0 = pinv @ (ya - forced)[:stop].ravel()
-        return x0, forced + free @ x0
+        resid = ya - dlsim(self.A, self.B, self.C, self.D, ua)
+        stop, pinv, _ = self.x0_solver(ua.shape[0])
+        return pinv @ resid[:stop].ravel()
 
     def simulate_segments(self, u: object, y: object, segment: int
                           ) -> tuple[np.ndarray, np.ndarray]:
@@ -275,8 +269,11 @@ class SubspaceModel:
         n_tot, n = ua.shape[0], self.order
         starts = np.arange(0, n_tot, segment)
         if not self.is_stable():  # one long simulation would overflow: segment by segment
-            fits = [self._segment(ua[a: a + segment], ya[a: a + segment]) for a in starts]
-            return np.vstack([f[1] for f in fits]), np.array([f[0] for f in fits])
+            x0 = np.array([self.estimate_x0(ua[a: a + segment], ya[a: a + segment])
+                           for a in starts])
+            y_sim = np.vstack([self.simulate(ua[a: a + segment], x)
+                               for a, x in zip(starts, x0, strict=True)])
+            return y_sim, x0
         states = dlsim(self.A, self.B, np.eye(n), np.zeros((n, self.n_inputs)), ua)
         y_one = states @ self.C.T + ua @ self.D.T
         dev = ya - y_one
