@@ -61,10 +61,6 @@ _LIFTED = ArrayMemo(8)
 # share A (the state and free-response simulations of one model, the B and x0 regressors
 # of a B, D least squares) or simulate again (the block-start levels) need the same powers.
 _POWERS = ArrayMemo(16)
-# Exact Krylov products and powers of the precise path, by their arguments: the simulations
-# of one state matrix with different input matrices (the free response and the B
-# regressors of a B, D least squares) share the observability products C A^k and A^L.
-_EXACT = ArrayMemo(16)
 
 
 def block_length(n: int, m: int, p: int) -> int:
@@ -99,9 +95,8 @@ def _lifted(a: np.ndarray, b: np.ndarray, c: np.ndarray, d: np.ndarray, L: int
     # C = I (a simulation of the states) multiplies nothing: skip its L products
     identity = p == n and np.array_equal(c, np.eye(n))
     if precise:  # C Ad^k and Ad^k Bd (k < L) exact: the chain's would carry its loss
-        cpa = _EXACT(("krylov", L - 1, array_key(a.T, c.T)),
-                     lambda: exact_krylov(a.T, c.T, L - 1)).transpose(0, 2, 1)
-        apb = _EXACT(("krylov", L - 1, array_key(a, b)), lambda: exact_krylov(a, b, L - 1))
+        cpa = exact_krylov(a.T, c.T, L - 1).transpose(0, 2, 1)
+        apb = exact_krylov(a, b, L - 1)
     else:
         cpa = powers[:L] if identity else c @ powers[:L]
         apb = powers[:L] @ b
@@ -112,8 +107,7 @@ def _lifted(a: np.ndarray, b: np.ndarray, c: np.ndarray, d: np.ndarray, L: int
     blocks = markov[np.maximum(lag, 0)] * (lag >= 0)[:, :, None, None]  # (L, L, p, m)
     toep = blocks.transpose(0, 2, 1, 3).reshape(L * p, L * m)
     reach = apb[::-1].transpose(1, 0, 2).reshape(n, L * m).astype(float)  # [.., Ad Bd, Bd]
-    a_l = (_EXACT(("power", L, array_key(a)), lambda: exact_power(a, L)) if precise
-           else powers[L])
+    a_l = exact_power(a, L) if precise else powers[L]
     return obs, toep, reach, a_l, precise
 
 
