@@ -157,6 +157,14 @@ def test_model_helpers_against_independent_computations():
     _, g_ref = sig.dfreqresp((model.A, model.B, model.C, model.D, 0.001),
                              w=2 * np.pi * f * 0.001)
     np.testing.assert_allclose(model.frf(f), g_ref.reshape(4, 1, 1), rtol=1e-10)
+    # The same grid again (remembered): still scipy's values, and a caller writing into one
+    # result changes neither the next one nor another grid's.
+    first = model.frf(f)
+    first[:] = 0.0
+    np.testing.assert_allclose(model.frf(f), g_ref.reshape(4, 1, 1), rtol=1e-10)
+    _, g_2 = sig.dfreqresp((model.A, model.B, model.C, model.D, 0.001),
+                           w=2 * np.pi * f[:2] * 0.001)
+    np.testing.assert_allclose(model.frf(f[:2]), g_2.reshape(2, 1, 1), rtol=1e-10)
     # Simulation against scipy.signal.dlsim, with a non-zero initial state.
     x0 = np.array([0.3, -0.2, 0.1, 0.5])
     _, y_ref, _ = sig.dlsim((model.A, model.B, model.C, model.D, 0.001), u[:500], x0=x0)

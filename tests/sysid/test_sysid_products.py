@@ -95,6 +95,41 @@ def test_bd_least_squares_matches_the_explicit_regression(feedthrough):
         np.testing.assert_allclose(d, d_ref, rtol=1e-9, atol=1e-9)
 
 
+@pytest.mark.parametrize("method", ["normal", "qr"])
+def test_bd_least_squares_of_two_records_matches_the_joint_explicit_regression(method):
+    # Two records share B, D, each with its own x0: the explicit regression stacks their
+    # rows, with each record's x0 columns zero in the other's rows (numpy lstsq).
+    A, B, C, D = mimo_plant(radius=0.995)
+    n, (l_, m) = A.shape[0], D.shape
+    rng = np.random.default_rng(8)
+    blocks, ys, zs = [], [], []
+    for k, n_s in enumerate((2500, 1800)):
+        u = rng.standard_normal((n_s, m))
+        _, y, _ = sig.dlsim((A, B, C, D, 1.0), u, x0=rng.standard_normal(n))
+        y = y + 0.2 * rng.standard_normal(y.shape)
+        eye, impulse = np.eye(n), np.zeros(n_s + 1)
+        impulse[0] = 1.0
+        cols = [simulate(A, eye[:, i: i + 1], C, np.zeros((l_, 1)), u[:, j]).ravel()
+                for j in range(m) for i in range(n)]
+        for r in range(l_):
+            for j in range(m):
+                col = np.zeros((n_s, l_))
+                col[:, r] = u[:, j]
+                cols.append(col.reshape(-1))
+        x0 = np.zeros((n_s * l_, 2 * n))
+        x0[:, k * n:(k + 1) * n] = np.column_stack(
+            [simulate(A, eye[:, i: i + 1], C, np.zeros((l_, 1)), impulse)[1:].ravel()
+             for i in range(n)])
+        blocks.append(np.column_stack(cols + [x0]))
+        ys.append(y.reshape(-1))
+        zs.append(np.vstack([u.T, y.T]))
+    theta = np.linalg.lstsq(np.vstack(blocks), np.concatenate(ys), rcond=None)[0]
+    b_ref, d_ref = theta[: n * m].reshape(m, n).T, theta[n * m: n * m + l_ * m].reshape(l_, m)
+    b, d = bd_least_squares(A, C, zs, m, True, chunk=1000, method=method)
+    np.testing.assert_allclose(b, b_ref, rtol=1e-9, atol=1e-9 * np.abs(b_ref).max())
+    np.testing.assert_allclose(d, d_ref, rtol=1e-9, atol=1e-9)
+
+
 def test_bd_least_squares_recovers_the_plant_from_noise_free_data():
     A, B, C, D = two_mode_plant(d=0.3)
     u = np.random.default_rng(4).standard_normal((20_000, 1))

@@ -124,12 +124,11 @@ def _cancels(a: np.ndarray, powers: np.ndarray) -> bool:
     """
     a_abs = np.abs(a.astype(float))
     n = a.shape[0]
-    for j in range(len(powers) - 1):
-        bound = np.max(a_abs @ np.abs(powers[j].astype(float)))
-        size = np.max(np.abs(powers[j + 1].astype(float)))
-        if bound > np.sqrt(n) * size:
-            return True
-    return False
+    mags = np.abs(powers.astype(float))
+    # every product of the chain at once (one batched product, not a loop over powers)
+    bound = np.max(a_abs @ mags[:-1], axis=(1, 2))
+    size = np.max(mags[1:], axis=(1, 2))
+    return bool(np.any(bound > np.sqrt(n) * size))
 
 
 def _powers(a: np.ndarray, count: int) -> np.ndarray:

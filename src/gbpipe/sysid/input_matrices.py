@@ -240,9 +240,13 @@ def bd_least_squares(
             for t0 in range(0, rec.shape[1], chunk):
                 zc, xs, _ = sim.explicit(t0, min(t0 + chunk, rec.shape[1]))
                 for r_, x in enumerate(xs):
-                    rows = np.zeros((zc.shape[1], k + 1))
-                    rows[:, cols] = _explicit_rows(zc, x, r_, n, m, feedthrough)
-                    r_aug = qr_append(r_aug, rows / col_scale)
+                    rows = _explicit_rows(zc, x, r_, n, m, feedthrough)
+                    if n_rec > 1:  # this record's columns of the joint problem
+                        joint = np.zeros((zc.shape[1], k + 1))
+                        joint[:, cols] = rows
+                        rows = joint
+                    rows /= col_scale  # in place: a chunk's rows are tens of MB
+                    r_aug = qr_append(r_aug, rows)
         # Same rank-revealing solver as a direct QR solve of the whole problem.
         theta = sla.lstsq(r_aug[:k, :k], r_aug[:k, k], lapack_driver="gelsy",
                           check_finite=False)[0] / scale

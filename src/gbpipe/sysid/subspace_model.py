@@ -102,6 +102,10 @@ class SubspaceModel:
         # Least-squares x0 solvers by segment length (a validation calls estimate_x0 on many
         # segments of one length); not a field, so replace() starts a fresh cache.
         object.__setattr__(self, "_x0_solvers", {})
+        # The last frequency grid and its response: the identify stage evaluates a model
+        # with confidence bounds on the same grid twice (gbpipe.sysid.frf_bounds, then the
+        # score against the reference).
+        object.__setattr__(self, "_last_frf", (b"", None))
 
     def x0_solver(self, n_samples: int) -> tuple[int, np.ndarray, np.ndarray]:
         """Free response over ``n_samples`` and its pseudo-inverse, cached by length.
@@ -176,8 +180,13 @@ class SubspaceModel:
         ndarray, complex, shape (n_freq, l, m)
         """
         f = np.atleast_1d(np.asarray(freq_hz, dtype=float)).ravel()
+        key, last = self._last_frf
+        if last is not None and key == f.tobytes():
+            return last.copy()  # a copy: the caller may write into it
         check_finite(f[:, None], "freq_hz")
-        return frf(self.ss, f)
+        g = frf(self.ss, f)
+        object.__setattr__(self, "_last_frf", (f.tobytes(), g.copy()))
+        return g
 
     def _check_u(self, u: object, name: str = "u") -> np.ndarray:
         ua = as_2d(u, name)
