@@ -20,6 +20,7 @@ import pytest
 from scipy import signal
 
 from gbpipe.harmonics import crossing_marks, half_power_band, residual_regression
+from gbpipe.harmonics.crossings import modal_carriers
 
 FS = 1000.0  # Hz
 MODE = (62.2, 0.02)  # Hz, damping ratio: the bench's 62 Hz mode
@@ -122,3 +123,19 @@ def test_crossing_marks_match_a_dense_scan_of_each_bin():
             inside = ((f >= lo) & (f <= hi)).any(axis=0)
             np.testing.assert_array_equal(marks[i, :, j], inside)
     np.testing.assert_allclose(band[:, 1] - band[:, 0], 2 * modes[:, 0] * modes[:, 1])
+
+
+def test_carriers_of_pairs_that_share_an_order_are_each_their_own():
+    # an order near two modes drives both with one phasor (computed once): every pair's
+    # carrier must equal the carrier of that pair alone, block by block
+    fs = 1000.0
+    t = np.arange(20000) / fs
+    theta = 2 * np.pi * (F0 * t + 0.5 * RATE * t**2)
+    orders = np.array([ORDER, 2 * ORDER])
+    modes = np.array([MODE, (70.0, 0.03)])
+    pairs = [(0, 0), (0, 1), (1, 1), (1, 0)]
+    cuts = np.array([0, 4096, 8192, 15000, t.size])
+    together = np.vstack(list(modal_carriers(theta, fs, orders, modes, pairs, cuts)))
+    for c, pair in enumerate(pairs):
+        alone = np.vstack(list(modal_carriers(theta, fs, orders, modes, [pair], cuts)))
+        np.testing.assert_array_equal(together[:, c], alone[:, 0])

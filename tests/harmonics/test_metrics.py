@@ -93,3 +93,24 @@ def test_removal_rejects_bad_input(sw):
         harmonics.family_attenuation(x, x, FS, sw["pulses"], {"bad": [1, -2]})
     with pytest.raises(ValueError, match="half_width must be > 0"):
         harmonics.mode_band_change(x, x, FS, [MODE_HZ], rpm=sw["rpm"], half_width=0.0)
+
+
+def test_several_signals_after_score_as_separate_calls(clean):
+    # The list form tracks `before` once: each signal after removal must get exactly the
+    # numbers of a call of its own (the band measure too)
+    x = clean["hss"] + clean["mesh"]
+    fam = {"hss": harmonics.family_orders(1, 3), "mesh2": harmonics.family_orders(MESH, 12)}
+    rng = np.random.default_rng(3)
+    afters = [harmonics.residual(x, FS, clean["pulses"], 1),
+              0.01 * rng.standard_normal(x.size) + 0.1 * clean["mesh"]]
+    together = harmonics.family_attenuation(x, afters, FS, clean["pulses"], fam, band=0.1,
+                                            rpm_bins=4)
+    assert isinstance(together, list) and len(together) == 2
+    for a, got in zip(afters, together, strict=True):
+        alone = harmonics.family_attenuation(x, a, FS, clean["pulses"], fam, band=0.1,
+                                             rpm_bins=4)
+        for v in alone.data_vars:
+            np.testing.assert_array_equal(got[v].values, alone[v].values)
+        np.testing.assert_array_equal(got.rpm.values, alone.rpm.values)
+    with pytest.raises(ValueError, match="empty list"):
+        harmonics.family_attenuation(x, [], FS, clean["pulses"], fam)

@@ -7,6 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from removal_signals import FAMILIES, db, inner, sweep
+from scipy.interpolate import BSpline
 
 from gbpipe.harmonics.regression import AmplitudeBasis, residual_regression
 
@@ -63,6 +64,19 @@ def test_bspline_basis_is_a_partition_of_unity():
     vals, first = b.values(t)
     np.testing.assert_allclose(vals.sum(axis=1), 1.0, atol=1e-12)
     assert first == 2 and b.size == 13
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_unfollowed_is_the_least_squares_misfit(seed):
+    # against an independent least-squares fit in the same basis (numpy's lstsq on the
+    # dense design matrix), over random knot spacings and slowly wandering phases
+    rng = np.random.default_rng(seed)
+    t = np.sort(rng.uniform(0.0, 12.0, 3000))
+    y = np.cumsum(rng.standard_normal(t.size)) * 1e-3 + 0.3 * np.sin(rng.uniform(0.2, 2) * t)
+    b = AmplitudeBasis(float(t[0]), float(t[-1]), "bspline", float(rng.uniform(0.5, 3.0)), 3)
+    design = BSpline.design_matrix(t, b.knots, 3).toarray()
+    coef, *_ = np.linalg.lstsq(design, y, rcond=None)
+    np.testing.assert_allclose(b.unfollowed(t, y), y - design @ coef, rtol=0, atol=1e-11)
 
 
 def test_bad_arguments(clean):

@@ -10,7 +10,8 @@ snakemake = globals()["snakemake"]
 log = io.setup_log(snakemake.log[0])
 p, i = snakemake.params, snakemake.input
 datasets = {m: io.read(path) for m, path in zip(p.methods, i.methods, strict=True)}
-sweep, random = io.read(i.sweep), io.read(i.random)
+# lazy: of the two sweeps' 20 series only the signal and the pulses are read
+sweep, random = io.read(i.sweep, lazy=True), io.read(i.random, lazy=True)
 sig = sweep[p.signal]  # spectra.signal, as rule removal reads it
 out = {"png": snakemake.output.removal_crossing_png,
        "caption": snakemake.output.removal_crossing_caption}

@@ -13,7 +13,10 @@ snakemake = globals()["snakemake"]
 log = io.setup_log(snakemake.log[0])
 p, i = snakemake.params, snakemake.input
 families = excitation_families(p.families_cfg)
-sweep, random, bench = io.read(i.sweep), io.read(i.random), io.read(i.bench)
+# lazy: of the two sweeps' 20 series only the analysed signal, the pulses and the speeds
+# of the second angle are read (each method reads them again: a few of 40 decompressed)
+sweep, random = io.read(i.sweep, lazy=True), io.read(i.random, lazy=True)
+bench = io.read(i.bench)
 # every method before any file: a failed method leaves no output
 done = {}
 for method, method_cfg in p.method_cfg.items():

@@ -131,12 +131,15 @@ def modal_carriers(theta: np.ndarray, fs: float, orders: np.ndarray,
     o = orders[k]
     rate0 = (theta[1] - theta[0]) / dt if theta.size > 1 else 0.0  # [rad/s]
     state = z * wn * np.exp(1j * o * theta[0]) / (1j * o * rate0 - p)  # steady state
+    # an order near several modes drives each of them with one phasor: computed once
+    distinct, column = np.unique(o, return_inverse=True)
     for a, b in zip(cuts[:-1], cuts[1:], strict=True):
-        u = np.exp(1j * np.outer(theta[a:b], o))
-        y = np.empty_like(u)
+        u = np.exp(1j * np.outer(theta[a:b], distinct))
+        y = np.empty((b - a, len(pairs)), dtype=complex)
         for c in range(len(pairs)):  # a few pairs: the recursion is compiled per pair
             # direct form II transposed: y[0] = zi, then y[n] = pole y[n-1] + gain u[n-1]
-            y[:, c], zf = lfilter([0.0, gain[c]], [1.0, -pole[c]], u[:, c], zi=[state[c]])
+            y[:, c], zf = lfilter([0.0, gain[c]], [1.0, -pole[c]], u[:, column[c]],
+                                  zi=[state[c]])
             state[c] = zf[0]
         yield y
 

@@ -88,7 +88,7 @@ def _bin_segments(theta_rev: np.ndarray, rpm_rev: np.ndarray,
 
 def family_attenuation(
     before: np.ndarray,
-    after: np.ndarray,
+    after: np.ndarray | Sequence[np.ndarray],
     fs: float,
     pulse_times: np.ndarray,
     families: Families,
@@ -98,7 +98,7 @@ def family_attenuation(
     pulses_per_rev: int = 1,
     t0: float = 0.0,
     method: AngleMethod = "pchip",
-) -> xr.Dataset:
+) -> xr.Dataset | list[xr.Dataset]:
     """Attenuation of each order family, overall and per rpm bin.
 
     Two measures. *Line*: order-tracked amplitude at each exact order (projection), the
@@ -112,6 +112,9 @@ def family_attenuation(
     ----------
     before, after : array_like, shape (n,)
         Signal before and after removal (same unit), sample ``i`` at ``t0 + i / fs``.
+        ``after`` may be a list of several signals after removal: each is scored against
+        ``before`` as in a call of its own (the same numbers), and ``before`` is tracked
+        once for all of them.
     fs : float
         Sample rate [Hz].
     pulse_times : array_like
@@ -131,13 +134,18 @@ def family_attenuation(
 
     Returns
     -------
-    xarray.Dataset
+    xarray.Dataset or list of xarray.Dataset
         ``attenuation`` (family) [dB], ``attenuation_vs_rpm`` (family, rpm) [dB] (line
         measure); ``attenuation_band``, ``attenuation_band_vs_rpm`` (band measure);
         ``power_before``/``power_after`` (family) [units^2 of the signal, relative];
-        coordinates ``family`` and ``rpm`` [rev/min] (bin centres and edges).
+        coordinates ``family`` and ``rpm`` [rev/min] (bin centres and edges). One per
+        signal when ``after`` is a list.
     """
-    b, a = _check_pair(before, after)
+    several = isinstance(after, list)
+    pairs = [_check_pair(before, a) for a in (after if several else [after])]
+    if not pairs:
+        raise ValueError("after is an empty list: give at least one signal after removal")
+    b = pairs[0][0]
     fam = _check_families(families)
     fs = as_positive(fs, "fs", "Hz")
     p = as_pulses(pulse_times)
@@ -150,61 +158,70 @@ def family_attenuation(
     all_orders = np.concatenate(list(fam.values()))
     whole = np.array([[0.0, theta_rev[-1] + TWO_PI]])
     segments = np.vstack([whole, seg])
-    # both signals in one call: one angle grid and one window per segment for the two
-    amp = order_amplitudes(np.column_stack([b, a]), fs, p, all_orders, pulses_per_rev=ppr,
-                           t0=t0, method=method, segments=segments)
-    pb, pa = np.abs(amp[:, 0]) ** 2 / 2, np.abs(amp[:, 1]) ** 2 / 2
+    # every signal in one call: one angle grid and one window per segment for them all
+    # (each column is resampled and projected on its own: the numbers of a call of its own)
+    amp = order_amplitudes(np.column_stack([b, *(a for _, a in pairs)]), fs, p, all_orders,
+                           pulses_per_rev=ppr, t0=t0, method=method, segments=segments)
+    pb = np.abs(amp[:, 0]) ** 2 / 2
     # Per-bin power: segments of a bin weighted by their length (revolutions).
     length = np.diff(segments[1:], axis=1)[:, 0]
     nb = edges.size - 1
     names = list(fam)
-    att = np.full(len(names), np.nan)
-    att_rpm = np.full((len(names), nb), np.nan)
-    pw_b = np.zeros(len(names))
-    pw_a = np.zeros(len(names))
-    start = 0
-    for f, name in enumerate(names):  # loop over a few families
-        cols = slice(start, start + fam[name].size)
-        start += fam[name].size
-        pw_b[f] = np.nansum(pb[0, cols])
-        pw_a[f] = np.nansum(pa[0, cols])
-        att[f] = 10 * np.log10(pw_b[f] / pw_a[f])
-        sb = np.nansum(pb[1:, cols], axis=1)
-        sa = np.nansum(pa[1:, cols], axis=1)
-        ok = (seg_bin >= 0) & np.isfinite(pb[1:, cols.start])
-        num = np.bincount(seg_bin[ok], weights=(sb * length)[ok], minlength=nb)
-        den = np.bincount(seg_bin[ok], weights=(sa * length)[ok], minlength=nb)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            att_rpm[f] = np.where((num > 0) & (den > 0), 10 * np.log10(num / den), np.nan)
     coords = rpm_coords(edges)
     coords["family"] = ("family", names, {"units": "1", "long_name": "removed order family"})
-    extra = {}
-    if band is not None:
-        band = as_positive(band, "band", "orders")
-        att_b, att_b_rpm = _band_attenuation(b, a, fs, p, fam, edges, band, ppr, t0, method)
-        extra = {
-            "attenuation_band": ("family", att_b, {"units": "dB", "long_name":
-                                 "attenuation of order-spectrum power within the family's "
-                                 "order bands, whole record", "band_orders": band}),
-            "attenuation_band_vs_rpm": (("family", "rpm"), att_b_rpm, {"units": "dB",
-                                        "long_name": "attenuation of order-spectrum power "
-                                        "within the family's order bands per rpm bin",
-                                        "band_orders": band}),
-        }
-    return xr.Dataset(
-        {
-            **extra,
-            "attenuation": ("family", att, {"units": "dB", "long_name":
-                            "attenuation of the family's order-tracked power, whole record"}),
-            "attenuation_vs_rpm": (("family", "rpm"), att_rpm, {"units": "dB", "long_name":
-                                   "attenuation of the family's order-tracked power per rpm bin"}),
-            "power_before": ("family", pw_b, {"units": "1", "long_name":
-                             "family power before removal (signal units squared)"}),
-            "power_after": ("family", pw_a, {"units": "1", "long_name":
-                            "family power after removal (signal units squared)"}),
-        },
-        coords=coords,
-    )
+    out = []
+    for j, (_, a) in enumerate(pairs, 1):
+        pa = np.abs(amp[:, j]) ** 2 / 2
+        att = np.full(len(names), np.nan)
+        att_rpm = np.full((len(names), nb), np.nan)
+        pw_b = np.zeros(len(names))
+        pw_a = np.zeros(len(names))
+        start = 0
+        for f, name in enumerate(names):  # loop over a few families
+            cols = slice(start, start + fam[name].size)
+            start += fam[name].size
+            pw_b[f] = np.nansum(pb[0, cols])
+            pw_a[f] = np.nansum(pa[0, cols])
+            att[f] = 10 * np.log10(pw_b[f] / pw_a[f])
+            sb = np.nansum(pb[1:, cols], axis=1)
+            sa = np.nansum(pa[1:, cols], axis=1)
+            ok = (seg_bin >= 0) & np.isfinite(pb[1:, cols.start])
+            num = np.bincount(seg_bin[ok], weights=(sb * length)[ok], minlength=nb)
+            den = np.bincount(seg_bin[ok], weights=(sa * length)[ok], minlength=nb)
+            with np.errstate(divide="ignore", invalid="ignore"):
+                att_rpm[f] = np.where((num > 0) & (den > 0), 10 * np.log10(num / den),
+                                      np.nan)
+        extra = {}
+        if band is not None:
+            band = as_positive(band, "band", "orders")
+            att_b, att_b_rpm = _band_attenuation(b, a, fs, p, fam, edges, band, ppr, t0,
+                                                 method)
+            extra = {
+                "attenuation_band": ("family", att_b, {"units": "dB", "long_name":
+                                     "attenuation of order-spectrum power within the "
+                                     "family's order bands, whole record",
+                                     "band_orders": band}),
+                "attenuation_band_vs_rpm": (("family", "rpm"), att_b_rpm, {
+                    "units": "dB", "long_name": "attenuation of order-spectrum power within "
+                    "the family's order bands per rpm bin", "band_orders": band}),
+            }
+        out.append(xr.Dataset(
+            {
+                **extra,
+                "attenuation": ("family", att, {
+                    "units": "dB", "long_name": "attenuation of the family's order-tracked "
+                    "power, whole record"}),
+                "attenuation_vs_rpm": (("family", "rpm"), att_rpm, {
+                    "units": "dB", "long_name": "attenuation of the family's order-tracked "
+                    "power per rpm bin"}),
+                "power_before": ("family", pw_b, {"units": "1", "long_name":
+                                 "family power before removal (signal units squared)"}),
+                "power_after": ("family", pw_a, {"units": "1", "long_name":
+                                "family power after removal (signal units squared)"}),
+            },
+            coords=coords,
+        ))
+    return out if several else out[0]
 
 
 def _band_attenuation(b, a, fs, p, fam, edges, band, ppr, t0, method):

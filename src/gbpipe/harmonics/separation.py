@@ -160,14 +160,13 @@ def separation_metrics(
     err = r - n
     opts = dict(rpm_bins=rpm_bins, band=None, pulses_per_rev=pulses_per_rev, t0=t0,
                 method=method)
+    # the harmonic part tracked once for the residual's error and the harmonic residual
+    scored = [err] if harmonic_residual is None else [err, sigs["harmonic_residual"][span]]
     with np.errstate(divide="ignore"):  # a perfect removal: +inf dB, not an error
-        att = family_attenuation(h, err, fs, pulse_times, fam, **opts)
+        att, *left = family_attenuation(h, scored, fs, pulse_times, fam, **opts)
     extra = {}
-    if harmonic_residual is not None:
-        left = family_attenuation(h, sigs["harmonic_residual"][span], fs, pulse_times, fam,
-                                  **{**opts, "rpm_bins": np.concatenate(
-                                      [att.rpm_lower.values, att.rpm_upper.values[-1:]])})
-        extra["leftover_db"] = (("family", "rpm"), left.attenuation_vs_rpm.values, {
+    if left:
+        extra["leftover_db"] = (("family", "rpm"), left[0].attenuation_vs_rpm.values, {
             "units": "dB", "long_name": "family attenuation by the method run on the known "
                                         "harmonic part alone"})
     edges = np.concatenate([att.rpm_lower.values, att.rpm_upper.values[-1:]])

@@ -101,36 +101,45 @@ def rounding_margin_db(values: np.ndarray, axis: int = -1) -> float:
         near or below 0 dB (smooth series) come out too high, by up to ~25 dB, but
         still far below :data:`MARGIN_DB`; margins of 20 dB and more are exact.
     """
+    return _margin(values, axis)[0]
+
+
+def _margin(values: np.ndarray, axis: int) -> tuple[float, np.ndarray | None]:
+    """:func:`rounding_margin_db`, and the banded spectrum of ``values`` where it was
+    computed (else None): :func:`quantum` needs the same one."""
     x = np.moveaxis(np.asarray(values, dtype=np.float64), axis, -1)
     bands = min(_BANDS, (x.shape[-1] // 2) // _LINES)
     if bands < 1 or not np.all(np.isfinite(x)):
-        return float("nan")
+        return float("nan"), None
     with np.errstate(over="ignore", invalid="ignore"):
         err = x - x.astype(np.float32).astype(np.float64)
     if not np.all(np.isfinite(err)):  # beyond float32's range
-        return float("nan")
+        return float("nan"), None
     if not np.any(err):
-        return float("inf")
+        return float("inf"), None
     # The smallest ratio over frequency is at most the ratio of the total powers: where
     # that is already below MARGIN_DB (a smooth series), it is returned, without spectra.
     with np.errstate(divide="ignore", invalid="ignore"):
         total = float(np.min(np.where(np.var(err, axis=-1) > 0,
                                       np.var(x, axis=-1) / np.var(err, axis=-1), np.inf)))
     if total < 10 ** (MARGIN_DB / 10):
-        return float(10.0 * np.log10(total)) if total > 0 else float("-inf")
+        return (float(10.0 * np.log10(total)) if total > 0 else float("-inf")), None
     pxx, pee = _band_psd(x, bands), _band_psd(err, bands)
     with np.errstate(divide="ignore", invalid="ignore"):
         ratio = np.where(pee > 0, pxx / pee, np.inf)
-        return float(10.0 * np.log10(np.min(ratio)))
+        return float(10.0 * np.log10(np.min(ratio))), pxx
 
 
-def quantum(values: np.ndarray, axis: int = -1) -> float:
+def quantum(values: np.ndarray, axis: int = -1, *, psd: np.ndarray | None = None) -> float:
     """The step a noisy series is rounded to before it is stored [its unit].
 
     Parameters
     ----------
     values, axis
         As for :func:`rounding_margin_db`.
+    psd : numpy.ndarray, optional
+        The banded spectrum of ``values`` that :func:`rounding_margin_db` computed on the
+        way (the same numbers; a whole-series FFT not done twice).
 
     Returns
     -------
@@ -149,7 +158,7 @@ def quantum(values: np.ndarray, axis: int = -1) -> float:
         return 0.0
     # a white series of variance v has periodogram lines v times the window's energy
     energy = float(np.sum(_hann(x.shape[-1]).astype(np.float64) ** 2))
-    floor = float(np.min(_band_psd(x, bands))) / energy
+    floor = float(np.min(_band_psd(x, bands) if psd is None else psd)) / energy
     if not floor > 0.0:
         return 0.0
     return float(2.0 ** np.floor(np.log2(np.sqrt(12.0 * floor) * 10 ** (-MARGIN_DB / 20))))
@@ -214,13 +223,14 @@ def storage(out: xr.Dataset, float32: bool, noisy: Collection[str],
             # CF forbids missing coordinate values; integers and strings have no NaN
             enc["_FillValue"] = None
         if var.dtype == np.float64 and name in out.data_vars:
-            margin = (rounding_margin_db(var.values, var.get_axis_num(sample_dim))
-                      if name in noisy else None)
+            margin, psd = (_margin(var.values, var.get_axis_num(sample_dim))
+                           if name in noisy else (None, None))
             if float32 or (margin is not None and margin >= MARGIN_DB):
                 enc["dtype"] = "float32"
                 # a stage's float32 series named noisy too is rounded as its noise allows
                 roomy = margin if margin is not None and margin >= MARGIN_DB else None
-                step = quantum(var.values, var.get_axis_num(sample_dim)) if roomy else 0.0
+                step = (quantum(var.values, var.get_axis_num(sample_dim), psd=psd)
+                        if roomy else 0.0)
                 exact = np.asarray(var.values, dtype=np.float64)
                 with np.errstate(over="ignore"):
                     stored = (np.round(exact / step) * step if step else exact).astype(

@@ -112,13 +112,17 @@ def _excitation(cfg: Mapping[str, Any], names: list[str], angles: dict[str, np.n
             continue
         theta = angles[f"angle_{g}_hss"]
         col = names.index(f"misalign_{g}_coupling")
+        # a line of zero amplitude adds exactly nothing: its sine is not computed (the
+        # random-only twins switch every line off; their phases are drawn all the same)
         for s, ph in zip(exc["shaft_orders"], ph_shaft, strict=True):
-            out[:, col] += float(s["amplitude"]) * np.sin(float(s["order"]) * theta + ph)
+            if float(s["amplitude"]):
+                out[:, col] += float(s["amplitude"]) * np.sin(float(s["order"]) * theta + ph)
         for m, phs in zip(exc["mesh"], ph_mesh, strict=True):
             col = names.index(f"te_{g}_mesh{m['stage']}")
             o = float(order_of(stages, f"mesh{m['stage']}"))
             for h, (w, ph) in enumerate(zip(m["harmonics"], phs, strict=True), start=1):
-                out[:, col] += float(m["amplitude"]) * w * np.sin(h * o * theta + ph)
+                if float(m["amplitude"]) * w:
+                    out[:, col] += float(m["amplitude"]) * w * np.sin(h * o * theta + ph)
     return out * scale[:, None]
 
 
@@ -156,7 +160,8 @@ def _simulate(cfg: Mapping[str, Any], t: np.ndarray, speed_ref: np.ndarray,
     angles, n_pre = _preroll(y, outputs, dt)
     load = np.concatenate([np.full(n_pre, torque_ref[0]), torque_ref])
     e = _excitation(cfg, exc_names, angles, load)
-    ym = y + _locked_response(ss, exc_names, outputs, e, dt, n_pre)
+    # no excitation (a random-only twin): its response from rest is exactly zero
+    ym = y + _locked_response(ss, exc_names, outputs, e, dt, n_pre) if np.any(e) else y
     sensor = noise["sensor"]
     for i, (name, (unit, long_name, kind)) in enumerate(SIGNALS.items()):
         value = ym[:, i] + float(sensor[kind]) * rng.standard_normal(n)
