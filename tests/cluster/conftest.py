@@ -1,5 +1,7 @@
 """Fixtures of the cluster tests: one real local SLURM per test session, and the SLURM
-runs of the tests, all started in the background as soon as the session is collected.
+runs of the tests, all started in the background as soon as the session is collected
+(under pytest-xdist: by the worker that runs them, when it sets up the first of them; see
+tests/conftest.py).
 
 The cluster (tests/cluster/slurm_local.py) is installed with apt-get when missing and
 started once; its tests are skipped, with the reason shown, only where it cannot be
