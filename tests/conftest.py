@@ -198,6 +198,16 @@ def xdist_group(item: pytest.Item) -> str | None:
     return min(homes, key=len) if homes else None
 
 
+def pytest_configure(config):
+    # pytest-xdist groups (--dist loadgroup) by writing each test's `_nodeid`, a slot that
+    # pytest 9.2 no longer has: every worker would then build the runs and start a cluster
+    if distributed(config) and not hasattr(pytest.Item, "_nodeid"):
+        raise pytest.UsageError(
+            f"pytest {pytest.__version__} and pytest-xdist do not group tests together "
+            "(--dist loadgroup); install requirements-test.txt's versions (pytest<9.2), "
+            "or run the suite in one process with -n 0")
+
+
 def pytest_itemcollected(item):
     group = xdist_group(item) if distributed(item.config) else None
     if group is not None:   # before xdist's own hook, which reads the mark
