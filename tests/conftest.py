@@ -264,6 +264,21 @@ def pytest_collection_finish(session):
         start_in_background(session, lambda: _SHARED.append(SharedRuns(names, factory)))
 
 
+#: Summary lines the xdist workers sent (`summary_lines` of tests/cluster/conftest.py),
+#: printed by the controller, which never loads that conftest.py (it collects nothing).
+_WORKER_LINES: list[str] = []
+
+
+@pytest.hookimpl(optionalhook=True)   # an xdist hook, called in the controller
+def pytest_testnodedown(node, error):
+    _WORKER_LINES.extend(getattr(node, "workeroutput", {}).get("summary_lines", []))
+
+
+def pytest_terminal_summary(terminalreporter):
+    for line in _WORKER_LINES:
+        terminalreporter.write_line(line)
+
+
 def pytest_sessionfinish(session):
     # a build still running (the session ended early) is waited for, so that no Snakemake
     # is left running in pytest's folders after the session

@@ -92,17 +92,8 @@ def pytest_collection_finish(session):
 def pytest_sessionfinish(session):
     while _BACKGROUND:
         _BACKGROUND.pop().stop()
-    if hasattr(session.config, "workeroutput"):   # an xdist worker: the summary's figures
-        session.config.workeroutput["slurm_summary"] = {"timings": TIMINGS, "memory": MEMORY}
-
-
-@pytest.hookimpl(optionalhook=True)   # an xdist hook: unknown under -p no:xdist
-def pytest_testnodedown(node, error):
-    # xdist's controller: the figures of the worker that ran the cluster tests
-    summary = getattr(node, "workeroutput", {}).get("slurm_summary")
-    if summary:
-        TIMINGS.update(summary["timings"])
-        MEMORY.update({rule: tuple(v) for rule, v in summary["memory"].items()})
+    if hasattr(session.config, "workeroutput"):   # an xdist worker: to the controller
+        session.config.workeroutput["summary_lines"] = summary_lines()
 
 
 def _background() -> Background:
@@ -153,11 +144,19 @@ def slurm_runs(slurm) -> dict[str, SlurmRun]:
     return _background().runs
 
 
-def pytest_terminal_summary(terminalreporter):
+def summary_lines() -> list[str]:
+    """The session summary's lines: the cluster's start-up seconds, each rule's memory."""
+    lines = []
     if TIMINGS:
         steps = ", ".join(f"{k} {v:.1f}" for k, v in TIMINGS.items())
-        terminalreporter.write_line(f"local SLURM [s]: {steps}; start-up total "
-                                    f"{sum(v for k, v in TIMINGS.items() if k != 'install'):.1f}")
+        lines.append(f"local SLURM [s]: {steps}; start-up total "
+                     f"{sum(v for k, v in TIMINGS.items() if k != 'install'):.1f}")
     if MEMORY:
         rules = ", ".join(f"{r} {m:.0f}/{a}" for r, (m, a) in sorted(MEMORY.items()))
-        terminalreporter.write_line(f"SLURM peak/asked memory per rule [MB]: {rules}")
+        lines.append(f"SLURM peak/asked memory per rule [MB]: {rules}")
+    return lines
+
+
+def pytest_terminal_summary(terminalreporter):
+    for line in summary_lines():   # one process (-n 0); under xdist, see tests/conftest.py
+        terminalreporter.write_line(line)
