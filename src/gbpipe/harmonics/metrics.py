@@ -148,6 +148,7 @@ def family_attenuation(
     b = pairs[0][0]
     fam = _check_families(families)
     fs = as_positive(fs, "fs", "Hz")
+    band = None if band is None else as_positive(band, "band", "orders")
     p = as_pulses(pulse_times)
     ppr = as_count(pulses_per_rev, "pulses_per_rev")
     check_within_record(p, float(t0), fs, b.size)
@@ -193,7 +194,6 @@ def family_attenuation(
                                       np.nan)
         extra = {}
         if band is not None:
-            band = as_positive(band, "band", "orders")
             att_b, att_b_rpm = _band_attenuation(b, a, fs, p, fam, edges, band, ppr, t0,
                                                  method)
             extra = {
