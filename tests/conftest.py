@@ -9,8 +9,9 @@ the tests that run first, and a test waits for its run's end (never for a time).
 The suite runs on pytest-xdist workers (``-n auto --dist loadgroup`` in pyproject.toml):
 every test that reads a shared run or the local SLURM is in one group (`RUNS_GROUP`), which
 one worker runs first, so that each run is built, and the cluster started, once; the other
-tests go to the workers module by module (`xdist_group`), so that a module's fixtures are
-built once. ``-n 0`` runs the whole suite in one process as before.
+tests go to the workers one by one, except that those sharing a module- or conftest-level
+fixture share a worker (`xdist_group`), so that the fixture is built once. ``-n 0`` runs
+the whole suite in one process as before.
 
 Imports sit in the fixtures: the thread settings below must precede numpy's import."""
 
