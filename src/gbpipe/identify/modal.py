@@ -34,11 +34,12 @@ from gbpipe.identify.bench_data import operating_point_settle
 from gbpipe.identify.harmonic_lines import (
     HarmonicBands,
     record_harmonic_bands,
+    reference_angle,
     speed_frequency_range,
 )
 from gbpipe.identify.mode_kinds import Cluster, Evidence, PairingData, record_evidence
 from gbpipe.identify.orders import order_windows
-from gbpipe.identify.prepare import ConditionedRecord
+from gbpipe.identify.prepare import ConditionedRecord, decimated_times
 from gbpipe.identify.reference import Reference, nonparametric_reference
 from gbpipe.io import longest_segment
 from gbpipe.lti import pad
@@ -174,18 +175,22 @@ def record_modes(cfg: Mapping[str, Any], record: xr.Dataset,
     inputs = list(dict.fromkeys(n for p in s["pairings"] for n in p["inputs"]))
     settle, _ = operating_point_settle(record, None, inputs, "raw",
                                        float(cfg["campaign"]["settle"]), s)
-    rec = ConditionedRecord(record, {}, float(record.attrs["sample_rate"]), settle, fs_id,
-                            s["lowpass"])
+    fs = float(record.attrs["sample_rate"])
+    rec = ConditionedRecord(record, {}, fs, settle, fs_id, s["lowpass"])
     for p in s["pairings"]:  # every signal is there before the first (long) diagram
         rec(list(p["inputs"]) + list(p["outputs"]) + list(p.get("reference", [])), "raw")
     results, refs, data = [], [], []
+    # the order lines' shaft angle where the conditioned signals were sampled
+    n_id = rec(s["pairings"][0]["outputs"], "raw").shape[0]
+    angle = reference_angle(record, float(record["time"].values[0]) + decimated_times(
+        n_id, fs, fs_id, s["lowpass"]), speeds) if speed else None
     for p in s["pairings"]:
         u, y = rec(p["inputs"], "raw"), rec(p["outputs"], "raw")
         r = rec(p["reference"], "raw") if "reference" in p else None
         refs.append(nonparametric_reference(u, y, fs_id, s, r))
         data.append(PairingData(y, list(p["outputs"]), fs_id, refs[-1].frequency,
                                 refs[-1].coherence.reshape(refs[-1].frequency.size, -1)
-                                .max(axis=1)))
+                                .max(axis=1), angle))
         results.append(_diagrams(u, y, _whole_band(u, y, fs_id, s, r), 1.0 / fs_id, s))
         for method, res in results[-1].items():
             if isinstance(res, str):

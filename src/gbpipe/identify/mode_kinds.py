@@ -8,7 +8,12 @@ A stable cluster of a stabilization diagram is one of three things:
 
     * the **speed**: the cluster lies on an order line of a measured speed
       (:mod:`gbpipe.identify.harmonic_lines`), or of the record's own order-1 line
-      (:func:`gbpipe.identify.harmonic_lines.order_one`);
+      (:func:`gbpipe.identify.harmonic_lines.order_one`). With a measured speed the line
+      itself is measured too: its order-locked phasor (:func:`line_share`) carries at
+      least ``LINE_SHARE`` of the power in the cluster's band, or the cluster fails
+      one of the tests below, or its band is not coherent. Otherwise the cluster is the
+      mode the line crosses (a line explains a band it dominates; a mode's random
+      response that holds most of the band is the mode's, whatever line passes);
     * the **PDF** of the response in the cluster's band (Brincker, Andersen & Møller,
       "Identification of harmonics in operational modal analysis", IMAC 2000; Jacobs et
       al., "Harmonic detection in OMA", ISMA 2008): the band-passed response of a mode
@@ -59,7 +64,7 @@ from gbpipe.identify.harmonic_lines import HarmonicBands, order_one
 
 __all__ = ["KINDS", "ALPHA", "Evidence", "band_envelope", "kurtosis_statistic",
            "kurtosis_limit", "Drift", "peak_drift", "resolvable_damping", "cluster_evidence",
-           "on_line", "Cluster", "PairingData", "record_evidence"]
+           "on_line", "LINE_SHARE", "line_share", "Cluster", "PairingData", "record_evidence"]
 
 #: The kinds of a cluster.
 KINDS = ("mode", "harmonic", "spurious")
@@ -69,6 +74,9 @@ ALPHA = 1e-3
 #: Monte Carlo draws of the statistic under the mode hypothesis (its mean and spread of
 #: the log; the log-normal tail is taken, see :func:`kurtosis_limit`).
 _DRAWS = 1000
+#: Share of a cluster's band power [1] from which an order line measured in it, not the
+#: mode it crosses, is what the cluster fits: the line then holds most of the band.
+LINE_SHARE = 0.5
 #: Order of the Butterworth low-pass of the complex demodulation (applied forward and
 #: backward: |L|^4 of an order-4 filter, flat to within 0.1 dB to 0.7 of the cut-off).
 _FILTER_ORDER = 4
@@ -226,6 +234,36 @@ def resolvable_damping(frequency_hz: float, duration_s: float) -> float:
     return 1.0 / (2.0 * frequency_hz * duration_s)
 
 
+def line_share(x: np.ndarray, fs: float, angle: np.ndarray, order: float, f0: float,
+               half_width: float) -> float:
+    """Power of order ``order``'s line over the power of ``x`` in ``f0 ± half_width`` [1].
+
+    The line's complex amplitude is the mean of ``x exp(-i order angle)`` over the record
+    (a DFT in the angle domain: exact for an angle-locked line whatever its speed drift;
+    random response and other orders average out as ``1 / sqrt(N)``); the band's power is
+    the mean of ``|z|^2`` of its complex band signal (:func:`band_envelope`), of the same
+    convention (a sinusoid of amplitude ``a`` gives ``a^2 / 4`` in both). About 1 for a
+    line alone in its band, near 0 for a mode's random response with a weak line through
+    it; above 1 when the line sweeps wider than the band.
+
+    Parameters
+    ----------
+    x : ndarray, shape (N,)
+        Signal sampled at ``fs`` [Hz].
+    angle : ndarray, shape (N,)
+        Reference shaft angle at its samples [rad] (NaN where unknown: left out).
+    order : float
+        Shaft order of the line [1].
+    f0, half_width : float
+        The cluster's band [Hz].
+    """
+    x = np.asarray(x, dtype=float) - np.mean(x)
+    known = np.isfinite(angle)
+    amplitude = np.mean(x[known] * np.exp(-1j * order * angle[known]))
+    z, _ = band_envelope(x, fs, f0, half_width)
+    return float(np.abs(amplitude) ** 2 / np.mean(np.abs(z) ** 2))
+
+
 def on_line(frequency_hz: float, bands: HarmonicBands) -> float:
     """Order of the band ``frequency_hz`` [Hz] lies in (the lowest), NaN for none."""
     inside = (bands.low_hz <= frequency_hz) & (frequency_hz <= bands.high_hz)
@@ -235,7 +273,8 @@ def on_line(frequency_hz: float, bands: HarmonicBands) -> float:
 def cluster_evidence(frequency_hz: float, damping: float, outputs: Sequence[np.ndarray],
                      names: Sequence[str], fs: float, coherence_f: np.ndarray,
                      coherence: np.ndarray, resolution_hz: float, coherence_min: float,
-                     bands: HarmonicBands, rng: np.random.Generator) -> Evidence:
+                     bands: HarmonicBands, rng: np.random.Generator,
+                     angle: np.ndarray | None = None) -> Evidence:
     """The kind of one cluster and why (module docstring).
 
     Parameters
@@ -257,6 +296,11 @@ def cluster_evidence(frequency_hz: float, damping: float, outputs: Sequence[np.n
         The order lines of a measured speed (empty without one).
     rng : numpy.random.Generator
         For the Monte Carlo draws of the kurtosis limit.
+    angle : ndarray, optional
+        The reference shaft's angle at the outputs' samples [rad]
+        (:func:`gbpipe.identify.harmonic_lines.reference_angle`): a cluster on an order
+        line is then a line only where the line holds its band (:func:`line_share`);
+        without it every cluster on a line is one.
     """
     f, zeta = float(frequency_hz), float(damping)
     w = _half_width(f, zeta, resolution_hz)
@@ -303,21 +347,34 @@ def cluster_evidence(frequency_hz: float, damping: float, outputs: Sequence[np.n
                                     f"{', '.join(f'{k:.4g}' for k in crossed)}: the PDF "
                                     "test does not decide"]),
              f"coherence <= {coh:.2f} in {band}"]
-    if np.isfinite(order):
+    sinusoid = kurt < limit and pdf_test
+    drifts = passes and drift.p < alpha and drift_test
+    share = np.nan
+    if np.isfinite(order) and angle is not None:
+        share = max(line_share(x, fs, angle, order, f, w) for x in outputs)
+        facts.insert(0, f"order {order:.4g} of {bands.source} holds {100 * share:.0f} % of "
+                        f"the power in {band}")
+    held = not share < LINE_SHARE  # NaN (no angle): the line is taken to hold its band
+    if np.isfinite(order) and (held or sinusoid or drifts or zeta < zeta_res
+                               or coh < coherence_min):
         kind, why = "harmonic", f"order {order:.4g} of {bands.source}"
     elif zeta < zeta_res:
         kind, why = "harmonic", (f"damping {zeta:.5f} below the record's resolution "
                                  f"{zeta_res:.5f} (decays slower than the {duration:.0f} s "
                                  "record)")
-    elif kurt < limit and pdf_test:
+    elif sinusoid:
         kind, why = "harmonic", f"kurtosis {kurt:.2f} below {limit:.2f} (sinusoid)"
-    elif passes and drift.p < alpha and drift_test:
+    elif drifts:
         kind, why = "harmonic", (f"its peak drifts with time (Spearman {drift.rho:.2f}, p "
                                  f"{drift.p:.1e} < {alpha:.1e}): a line following a shaft's "
                                  "speed")
     elif coh < coherence_min:
         kind, why = "spurious", (f"coherence {coh:.2f} below coherence_min "
                                  f"{coherence_min:g} in {band} (noise fitted)")
+    elif np.isfinite(order):
+        kind, why = "mode", (f"a mode order {order:.4g} of {bands.source} crosses: the line "
+                             f"holds under {100 * LINE_SHARE:.0f} % of its band, which is "
+                             "Gaussian, resolved and coherent")
     else:
         kind, why = "mode", "Gaussian in its band, resolved, coherent" + (
             f", on no order line of {bands.source}" if bands.source else "")
@@ -334,14 +391,16 @@ class Cluster(NamedTuple):
 
 class PairingData(NamedTuple):
     """What the tests read of one pairing: its conditioned outputs (``y`` (N, ny), names,
-    rate ``fs`` [Hz]) and the highest coherence over its FRF elements [1] per frequency
-    [Hz] of its nonparametric estimate."""
+    rate ``fs`` [Hz]), the highest coherence over its FRF elements [1] per frequency
+    [Hz] of its nonparametric estimate, and the reference shaft's angle at the outputs'
+    samples [rad] (None: no speed measured)."""
 
     y: np.ndarray
     names: Sequence[str]
     fs: float
     frequency: np.ndarray
     coherence: np.ndarray
+    angle: np.ndarray | None = None
 
 
 def record_evidence(clusters: Sequence[Cluster], data: Sequence[PairingData],
@@ -369,7 +428,8 @@ def record_evidence(clusters: Sequence[Cluster], data: Sequence[PairingData],
     ev = [cluster_evidence(c.frequency_hz, c.damping, list(data[c.pairing].y.T),
                            data[c.pairing].names, data[c.pairing].fs,
                            data[c.pairing].frequency, data[c.pairing].coherence,
-                           resolution_hz, coherence_min, bands, rng) for c in clusters]
+                           resolution_hz, coherence_min, bands, rng,
+                           data[c.pairing].angle) for c in clusters]
     if bands.source:
         return ev, bands
     lines = np.array([c.frequency_hz for c, e in zip(clusters, ev, strict=True)

@@ -35,7 +35,7 @@ from gbpipe.errors import ConfigError, DataError
 from gbpipe.io import measured_signal
 
 __all__ = ["VERSIONS", "VALIDATION_PARTNER", "operating_point", "decimation_filter",
-           "decimate", "condition", "version_signals", "ConditionedRecord"]
+           "decimate", "decimated_times", "condition", "version_signals", "ConditionedRecord"]
 
 #: Data versions that need no removal method of their own (``tsa`` is the paper's TSA of
 #: ``tsa.tests``); any other version names a ``removal`` method run on the tests.
@@ -111,6 +111,14 @@ def decimation_filter(fs: float, fs_out: float, cutoff: float = 0.8,
     h = signal.firwin(numtaps, 0.5 * (1 + cutoff) * fs_out / 2, width=(1 - cutoff) * fs_out / 2,
                       fs=fs)
     return h, q
+
+
+def decimated_times(n_out: int, fs: float, fs_out: float, cutoff: float = 0.8) -> np.ndarray:
+    """When the ``n_out`` samples of :func:`decimate` were taken [s from the input's first
+    sample]: output ``k`` is the filter output at input sample ``len(h) - 1 + q k``, whose
+    linear-phase FIR delays by ``(len(h) - 1) / 2`` samples."""
+    h, q = decimation_filter(fs, fs_out, cutoff)
+    return (0.5 * (len(h) - 1) + q * np.arange(n_out)) / fs
 
 
 def decimate(x: np.ndarray, fs: float, fs_out: float, cutoff: float = 0.8) -> np.ndarray:
