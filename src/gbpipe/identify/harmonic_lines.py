@@ -12,9 +12,10 @@ speed spans ``[f_low, f_high]`` (from the tachometer pulse train), so order ``k`
 The candidate orders are the shaft orders ``1 .. n_harmonics`` of the tacho shaft
 (unbalance and misalignment are always there) plus the orders the user lists for the
 record (``measured.<record>.orders``) or the excitation families a simulated record was
-built with. A mode that happens to lie inside a band is reported as ``harmonic``: the data
-of one speed range cannot separate the two, and the label says so rather than claiming a
-mode (docs/modal.md, "Criteria").
+built with. Here a mode that happens to lie inside a band is ``harmonic``: the band
+alone cannot separate the two. :mod:`gbpipe.identify.mode_kinds` measures the line itself
+with the shaft's angle (:func:`reference_angle`) and keeps a mode that a weak line
+crosses (docs/modal.md, "Criteria").
 """
 
 from __future__ import annotations
