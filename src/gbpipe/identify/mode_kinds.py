@@ -349,12 +349,17 @@ def cluster_evidence(frequency_hz: float, damping: float, outputs: Sequence[np.n
              f"coherence <= {coh:.2f} in {band}"]
     sinusoid = kurt < limit and pdf_test
     drifts = passes and drift.p < alpha and drift_test
-    share = np.nan
+    share = bound = np.nan
     if np.isfinite(order) and angle is not None:
         share = max(line_share(x, fs, angle, order, f, w) for x in outputs)
-        facts.insert(0, f"order {order:.4g} of {bands.source} holds {100 * share:.0f} % of "
-                        f"the power in {band}")
-    held = not share < LINE_SHARE  # NaN (no angle): the line is taken to hold its band
+        # the random response's projection on the line is of rms sqrt(S / 2T) in
+        # amplitude, S / 2T = E|z|^2 / (2 w T) of the band's power: the line is taken to
+        # hold its band unless its share's upper bound at the test's alpha is below half
+        bound = (np.sqrt(share) + stats.norm.isf(alpha) / np.sqrt(2 * w * duration)) ** 2
+        facts.insert(0, f"the line of order {order:.4g} of {bands.source} has {share:.2f} "
+                        f"times the power in {band} (at most {bound:.2f} with "
+                        f"{100 * (1 - alpha):.2f} %; above 1: it sweeps wider)")
+    held = not bound < LINE_SHARE  # NaN (no angle): the line is taken to hold its band
     if np.isfinite(order) and (held or sinusoid or drifts or zeta < zeta_res
                                or coh < coherence_min):
         kind, why = "harmonic", f"order {order:.4g} of {bands.source}"
@@ -373,8 +378,8 @@ def cluster_evidence(frequency_hz: float, damping: float, outputs: Sequence[np.n
                                  f"{coherence_min:g} in {band} (noise fitted)")
     elif np.isfinite(order):
         kind, why = "mode", (f"a mode order {order:.4g} of {bands.source} crosses: the line "
-                             f"holds under {100 * LINE_SHARE:.0f} % of its band, which is "
-                             "Gaussian, resolved and coherent")
+                             f"has under {LINE_SHARE:g} times the power in its band, which "
+                             "is Gaussian, resolved and coherent")
     else:
         kind, why = "mode", "Gaussian in its band, resolved, coherent" + (
             f", on no order line of {bands.source}" if bands.source else "")
