@@ -11,14 +11,13 @@ from scipy import signal, stats
 from gbpipe.config import load, merge
 from gbpipe.errors import DataError
 from gbpipe.identify import modes_table_rows, record_modes
+from gbpipe.identify.band_signal import band_envelope, line_share
 from gbpipe.identify.harmonic_lines import HarmonicBands, order_one, speed_frequency_range
 from gbpipe.identify.mode_kinds import (
     ALPHA,
-    band_envelope,
     cluster_evidence,
     kurtosis_limit,
     kurtosis_statistic,
-    line_share,
     peak_drift,
     resolvable_damping,
 )

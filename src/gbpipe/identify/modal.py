@@ -39,7 +39,7 @@ from gbpipe.identify.harmonic_lines import (
 )
 from gbpipe.identify.mode_kinds import Cluster, Evidence, PairingData, record_evidence
 from gbpipe.identify.orders import order_windows
-from gbpipe.identify.prepare import ConditionedRecord, decimated_times
+from gbpipe.identify.prepare import ConditionedRecord
 from gbpipe.identify.reference import Reference, nonparametric_reference
 from gbpipe.io import longest_segment
 from gbpipe.lti import pad
@@ -165,25 +165,21 @@ def record_modes(cfg: Mapping[str, Any], record: xr.Dataset,
     fs_id = float(s["sample_rate"])
     resolution = 1.0 / float(s["nonparametric"]["segment"])
     st = s["stabilization"]
-    # before any long work: the bands of a measured speed (a tacho, or a speed signal);
-    # without one the orders wait for the record's own order-1 line (mode_kinds)
+    # before long work: the bands of a measured speed (a tacho, or a speed signal); without
+    # one the orders wait for the record's own order-1 line (mode_kinds)
     speed = "pulse_time" in record or bool(speeds)
     bands = record_harmonic_bands(record, orders if speed else (), resolution,
                                   st["shaft_harmonics"], s["frf"]["f_max"], speeds=speeds)
-    # the operating point as the identify stage takes it: the mean before the inputs'
-    # first excitation in the band (at most campaign.settle)
+    # the operating point as the identify stage takes it (before the first excitation)
     inputs = list(dict.fromkeys(n for p in s["pairings"] for n in p["inputs"]))
     settle, _ = operating_point_settle(record, None, inputs, "raw",
                                        float(cfg["campaign"]["settle"]), s)
-    fs = float(record.attrs["sample_rate"])
-    rec = ConditionedRecord(record, {}, fs, settle, fs_id, s["lowpass"])
+    rec = ConditionedRecord(record, {}, float(record.attrs["sample_rate"]), settle, fs_id,
+                            s["lowpass"])
     for p in s["pairings"]:  # every signal is there before the first (long) diagram
         rec(list(p["inputs"]) + list(p["outputs"]) + list(p.get("reference", [])), "raw")
     results, refs, data = [], [], []
-    # the order lines' shaft angle where the conditioned signals were sampled
-    n_id = rec(s["pairings"][0]["outputs"], "raw").shape[0]
-    angle = reference_angle(record, float(record["time"].values[0]) + decimated_times(
-        n_id, fs, fs_id, s["lowpass"]), speeds) if speed else None
+    angle = reference_angle(record, rec.times(), speeds) if speed else None  # of the lines
     for p in s["pairings"]:
         u, y = rec(p["inputs"], "raw"), rec(p["outputs"], "raw")
         r = rec(p["reference"], "raw") if "reference" in p else None

@@ -60,11 +60,12 @@ from typing import NamedTuple
 import numpy as np
 from scipy import signal, stats
 
+from gbpipe.identify.band_signal import FILTER_ORDER, band_envelope, line_share
 from gbpipe.identify.harmonic_lines import HarmonicBands, order_one
 
-__all__ = ["KINDS", "ALPHA", "Evidence", "band_envelope", "kurtosis_statistic",
+__all__ = ["KINDS", "ALPHA", "Evidence", "kurtosis_statistic",
            "kurtosis_limit", "Drift", "peak_drift", "resolvable_damping", "cluster_evidence",
-           "on_line", "LINE_SHARE", "line_share", "Cluster", "PairingData", "record_evidence"]
+           "on_line", "LINE_SHARE", "Cluster", "PairingData", "record_evidence"]
 
 #: The kinds of a cluster.
 KINDS = ("mode", "harmonic", "spurious")
@@ -77,9 +78,6 @@ _DRAWS = 1000
 #: Share of a cluster's band power [1] from which an order line measured in it, not the
 #: mode it crosses, is what the cluster fits: the line then holds most of the band.
 LINE_SHARE = 0.5
-#: Order of the Butterworth low-pass of the complex demodulation (applied forward and
-#: backward: |L|^4 of an order-4 filter, flat to within 0.1 dB to 0.7 of the cut-off).
-_FILTER_ORDER = 4
 
 
 class Evidence(NamedTuple):
@@ -115,39 +113,6 @@ def _half_width(frequency_hz: float, damping: float, resolution_hz: float) -> fl
     return max(resolution_hz, 2.0 * damping * frequency_hz)
 
 
-def band_envelope(x: np.ndarray, fs: float, f0: float, half_width: float
-                  ) -> tuple[np.ndarray, float]:
-    """The complex band signal of ``x`` around ``f0``: demodulated, low-passed, decimated.
-
-    Parameters
-    ----------
-    x : ndarray, shape (N,)
-        Signal, any unit, sampled at ``fs`` [Hz].
-    f0 : float
-        Centre of the band [Hz].
-    half_width : float
-        Half-width of the band [Hz] (the low-pass cut-off).
-
-    Returns
-    -------
-    z : ndarray of complex, shape (M,)
-        The band signal (``x``'s unit), sampled at four times the half-width or more,
-        without the filter's start-up at either end.
-    fs_z : float
-        Its sample rate [Hz].
-    """
-    t = np.arange(x.size) / fs
-    cut = min(half_width, 0.45 * fs)
-    sos = signal.butter(_FILTER_ORDER, cut, fs=fs, output="sos")
-    z = signal.sosfiltfilt(sos, (x - x.mean()) * np.exp(-2j * np.pi * f0 * t))
-    # the filter's start-up at either end (the record's first sample is a step from the
-    # padding): a burst that no mode makes, dropped; 2 / cut is about three time
-    # constants of the order-4 low-pass
-    edge = min(int(2.0 * fs / cut), x.size // 4)
-    step = max(1, int(fs // (4.0 * cut)))
-    return z[edge:x.size - edge:step], fs / step
-
-
 def kurtosis_statistic(z: np.ndarray) -> np.ndarray:
     """``1.5 E|z|^4 / (E|z|^2)^2`` along the last axis: the kurtosis of the real band signal
     (sinusoid 1.5, Gaussian 3) [1]."""
@@ -171,7 +136,7 @@ def kurtosis_limit(f0: float, damping: float, half_width: float, fs_z: float, n:
     nu = np.fft.fftfreq(n, 1.0 / fs_z)
     f = f0 + nu
     mode = 1.0 / np.abs(f0 ** 2 - f ** 2 + 2j * damping * f0 * f) ** 2
-    low = 1.0 / (1.0 + (nu / half_width) ** (2 * _FILTER_ORDER)) ** 2
+    low = 1.0 / (1.0 + (nu / half_width) ** (2 * FILTER_ORDER)) ** 2
     shape = np.sqrt(mode * low)
     logs = []
     for _ in range(0, _DRAWS, 250):  # batches bound the memory of long bands
@@ -232,36 +197,6 @@ def resolvable_damping(frequency_hz: float, duration_s: float) -> float:
     """Smallest damping ratio a record of ``duration_s`` [s] resolves at ``frequency_hz``
     [Hz]: half-power bandwidth ``2 ζ f`` equal to the resolution ``1 / T`` [1]."""
     return 1.0 / (2.0 * frequency_hz * duration_s)
-
-
-def line_share(x: np.ndarray, fs: float, angle: np.ndarray, order: float, f0: float,
-               half_width: float) -> float:
-    """Power of order ``order``'s line over the power of ``x`` in ``f0 ± half_width`` [1].
-
-    The line's complex amplitude is the mean of ``x exp(-i order angle)`` over the record
-    (a DFT in the angle domain: exact for an angle-locked line whatever its speed drift;
-    random response and other orders average out as ``1 / sqrt(N)``); the band's power is
-    the mean of ``|z|^2`` of its complex band signal (:func:`band_envelope`), of the same
-    convention (a sinusoid of amplitude ``a`` gives ``a^2 / 4`` in both). About 1 for a
-    line alone in its band, near 0 for a mode's random response with a weak line through
-    it; above 1 when the line sweeps wider than the band.
-
-    Parameters
-    ----------
-    x : ndarray, shape (N,)
-        Signal sampled at ``fs`` [Hz].
-    angle : ndarray, shape (N,)
-        Reference shaft angle at its samples [rad] (NaN where unknown: left out).
-    order : float
-        Shaft order of the line [1].
-    f0, half_width : float
-        The cluster's band [Hz].
-    """
-    x = np.asarray(x, dtype=float) - np.mean(x)
-    known = np.isfinite(angle)
-    amplitude = np.mean(x[known] * np.exp(-1j * order * angle[known]))
-    z, _ = band_envelope(x, fs, f0, half_width)
-    return float(np.abs(amplitude) ** 2 / np.mean(np.abs(z) ** 2))
 
 
 def on_line(frequency_hz: float, bands: HarmonicBands) -> float:

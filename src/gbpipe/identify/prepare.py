@@ -113,12 +113,12 @@ def decimation_filter(fs: float, fs_out: float, cutoff: float = 0.8,
     return h, q
 
 
-def decimated_times(n_out: int, fs: float, fs_out: float, cutoff: float = 0.8) -> np.ndarray:
-    """When the ``n_out`` samples of :func:`decimate` were taken [s from the input's first
-    sample]: output ``k`` is the filter output at input sample ``len(h) - 1 + q k``, whose
-    linear-phase FIR delays by ``(len(h) - 1) / 2`` samples."""
+def decimated_times(n: int, fs: float, fs_out: float, cutoff: float = 0.8) -> np.ndarray:
+    """When the samples :func:`decimate` makes of ``n`` input samples were taken [s from the
+    first input sample]: output ``k`` is the filter output at input sample
+    ``len(h) - 1 + q k``, which the linear-phase FIR delays by ``(len(h) - 1) / 2``."""
     h, q = decimation_filter(fs, fs_out, cutoff)
-    return (0.5 * (len(h) - 1) + q * np.arange(n_out)) / fs
+    return (np.arange(len(h) - 1, n, q) - 0.5 * (len(h) - 1)) / fs
 
 
 def decimate(x: np.ndarray, fs: float, fs_out: float, cutoff: float = 0.8) -> np.ndarray:
@@ -255,3 +255,8 @@ class ConditionedRecord:
                               self.fs, self.settle, self.fs_out, self.cutoff)
                 self._columns[version, n] = x[:, 0]
         return np.column_stack([self._columns[version, n] for n in names])
+
+    def times(self) -> np.ndarray:
+        """When the conditioned samples were taken [s on the record's time axis]."""
+        return float(self.ds["time"].values[0]) + decimated_times(
+            self.ds.sizes["time"], self.fs, self.fs_out, self.cutoff)
