@@ -11,6 +11,7 @@ from gbpipe.identify.harmonic_lines import (
     harmonic_bands,
     label_poles,
     record_harmonic_bands,
+    reference_angle,
     shaft_frequency_range,
 )
 from gbpipe.measured import parse
@@ -108,6 +109,32 @@ def test_record_bands_from_a_speed_signal():
     assert b.low_hz.tolist() == pytest.approx([7.5, 15.5, 39.5])
     with pytest.raises(DataError, match="must be a speed"):
         record_harmonic_bands(rec, [5.0], 0.5, 2, speeds={"x": 1.0})
+
+
+def test_reference_angle_from_pulses_and_from_a_speed_signal():
+    # theta(t) = 2 pi (f0 t + a t^2 / 2) in closed form; the pulses (2 per rev) place it
+    # from the first pulse on, a speed signal of a shaft at 3x the reference from the
+    # record's start; neither is known outside its data (NaN), and a record with neither
+    # has none
+    f0, f1, duration, fs = 12.0, 12.6, 10.0, 500.0
+    a = (f1 - f0) / duration
+    t = np.arange(int(duration * fs)) / fs
+    theta = 2 * np.pi * (f0 * t + a * t ** 2 / 2)
+    p = sweep_pulses(f0, f1, duration, 2, np.zeros(2))
+    rec = xr.Dataset({"pulse_time": ("pulse", p)}, coords={"time": t},
+                     attrs={"pulses_per_rev": 2})
+    got = reference_angle(rec, t)
+    inside = (t >= p[0]) & (t <= p[-1])
+    assert np.all(np.isnan(got[~inside]))
+    # the pulse at theta = 0 is the first: got is theta shifted by theta(p[0]) = 0
+    assert np.max(np.abs(got[inside] - theta[inside])) < 1e-4
+    w = 3 * np.gradient(theta, t, edge_order=2)
+    rec = xr.Dataset({"w": ("time", w, {"units": "rad/s"})}, coords={"time": t},
+                     attrs={"sample_rate": fs})
+    got = reference_angle(rec, t[10:-10] + 0.5 / fs, speeds={"w": 3.0})
+    assert np.max(np.abs(got - (theta[10:-10] + np.pi * (f0 + a * t[10:-10]) / fs))) < 1e-4
+    assert np.isnan(reference_angle(rec, np.array([t[-1] + 1.0]), speeds={"w": 3.0})[0])
+    assert reference_angle(rec, t) is None
 
 
 def test_shaft_order_key():

@@ -11,10 +11,10 @@ from scipy import signal, stats
 from gbpipe.config import load, merge
 from gbpipe.errors import DataError
 from gbpipe.identify import modes_table_rows, record_modes
+from gbpipe.identify.band_signal import band_envelope, line_share
 from gbpipe.identify.harmonic_lines import HarmonicBands, order_one, speed_frequency_range
 from gbpipe.identify.mode_kinds import (
     ALPHA,
-    band_envelope,
     cluster_evidence,
     kurtosis_limit,
     kurtosis_statistic,
@@ -56,6 +56,31 @@ def test_band_kurtosis_of_a_sine_in_noise_is_the_closed_form():
     z, _ = band_envelope(0.1 * np.sin(2 * np.pi * 37.0 * t) + noise, FS, 37.0, 1.0)
     assert float(kurtosis_statistic(z)) == pytest.approx(stats.kurtosis(xb, fisher=False),
                                                          abs=0.1)
+
+
+@pytest.mark.parametrize("amp", [0.0, 0.6, 1.5, 6.0])
+def test_line_share_is_the_lines_power_over_the_bands(amp):
+    # a mode's random response r plus an angle-locked line of amplitude a drifting 1 %
+    # through its band. The share is (a / 2)^2 over the band's power; the band's power
+    # is integrated from scipy's Welch PSD of the sum through the band filter's gain
+    # (order-4 Butterworth low-pass, forward and backward: 1 / (1 + (df / w)^8)^2). The
+    # line's estimate carries r's projection, of rms sqrt(S_r / (2 T)) (S_r r's one-sided
+    # PSD at the line, T the record): 3 of those bound its amplitude's error.
+    rng = np.random.default_rng(4)
+    t = np.arange(int(200 * FS)) / FS
+    f_shaft = 12.0 * (1 + 0.01 * t / t[-1])
+    angle = 2 * np.pi * np.cumsum(f_shaft) / FS
+    r = _sdof(60.0, 0.02, t.size, rng)
+    x = r / r.std() + amp * np.cos(5 * angle + 1.0)
+    f, pxx = signal.welch(x, FS, nperseg=int(20 * FS))
+    gain = 1 / (1 + ((f - 60.6) / 3.0) ** 8) ** 2
+    band_power = np.sum(pxx * gain) * (f[1] - f[0]) / 2  # of the complex band signal
+    fr, pr = signal.welch(r / r.std(), FS, nperseg=int(20 * FS))
+    sigma = np.sqrt(np.interp(60.3, fr, pr) / (2 * t[-1]))
+    got = np.sqrt(line_share(x, FS, angle, 5.0, 60.6, 3.0) * band_power)
+    assert abs(got - amp / 2) <= 3 * sigma + 0.01 * amp
+    # the angle is what tells the line: off by a shaft order, only r's projection is left
+    assert np.sqrt(line_share(x, FS, angle, 4.0, 60.6, 3.0) * band_power) <= 3 * sigma
 
 
 @pytest.mark.parametrize(("f0", "zeta"), [(24.0, 0.01), (150.0, 0.03)])
@@ -209,11 +234,16 @@ F0, ZETA, SHAFT = 40.0, 0.02, (10.95, 11.05)  # Hz, -, Hz (the shaft's slow drif
 LINE_ORDERS = (1.0, 2.0, 7.0)  # unbalance, misalignment, a mesh of 7 teeth
 
 
-def _lines_record(speed: str, seed: int = 8) -> xr.Dataset:
+#: A mesh order whose line sweeps through the mode (F0 over the mean shaft frequency).
+CROSSING = F0 / np.mean(SHAFT)
+
+
+def _lines_record(speed: str, seed: int = 8, crossing: float = 0.0) -> xr.Dataset:
     """A torsional oscillator (J = 0.5 kg m^2) under a white motor torque plus the
     angle-locked torques of a shaft drifting over ``SHAFT``; the output is its speed with
     2 % noise. ``speed``: ``tacho`` (1 pulse per rev), ``speed`` (a speed signal of a
-    shaft at twice the reference) or ``none``."""
+    shaft at twice the reference) or ``none``. ``crossing``: amplitude [N m] of a further
+    line of order ``CROSSING``, through the mode."""
     rng = np.random.default_rng(seed)
     t = np.arange(int(40 * FS)) / FS
     f_shaft = SHAFT[0] + (SHAFT[1] - SHAFT[0]) * t / t[-1]
@@ -221,6 +251,7 @@ def _lines_record(speed: str, seed: int = 8) -> xr.Dataset:
     u = 50.0 * rng.standard_normal(t.size)
     lines = sum(a * np.sin(k * theta + rng.uniform(0, 6)) for k, a in
                 zip(LINE_ORDERS, (400.0, 300.0, 400.0), strict=True))
+    lines = lines + crossing * np.sin(CROSSING * theta + 0.7)
     wn = 2 * np.pi * F0
     sysd = signal.cont2discrete((np.array([[0, 1], [-wn ** 2, -2 * ZETA * wn]]),
                                  np.array([[0], [2.0]]), np.array([[0, 1.0]]),
@@ -274,6 +305,39 @@ def test_kinds_of_a_record_with_known_mode_and_lines(speed):
     held = [all(np.nanmin(np.abs(p - fk), initial=np.inf) <= tol * fk for fk in need)
             for p in d.pole_frequency.values]
     assert int(d.model_order) == int(d.order.values[held.index(True)])
+
+
+@pytest.mark.parametrize("speed", ["tacho", "speed"])
+def test_a_line_through_the_mode_is_the_mode_where_it_holds_little_of_the_band(speed):
+    """A mesh line sweeping through the 40 Hz mode. Weak (its share of the mode's band,
+    measured here from the record's own PSD, well under half), the cluster there is the
+    mode the line crosses; strong (well over half), it is the line. Before the line's
+    share was measured, both were ``harmonic``: one speed range cannot tell them."""
+    cfg = merge(load(CONFIG), {"campaign": {"settle": 1.0}, "identify": {
+        "versions": ["raw"], "pairings": [{"name": "T_w", "inputs": ["torque"],
+                                           "outputs": ["speed"]}]}})
+    res = 1.0 / cfg["identify"]["nonparametric"]["segment"]
+    band = (CROSSING * SHAFT[0] - res, CROSSING * SHAFT[1] + res)
+    for amp, kind in ((2.0, "mode"), (60.0, "harmonic")):
+        rec = _lines_record(speed, crossing=amp)
+        # the line's share of the mode's half-power band, from scipy's PSD of the output
+        # and of the same record without the line
+        base = _lines_record(speed, crossing=0.0)
+        f, p_all = signal.welch(rec["speed"].values, FS, nperseg=int(4 * FS))
+        _, p_base = signal.welch(base["speed"].values, FS, nperseg=int(4 * FS))
+        near = np.abs(f - F0) <= 2 * ZETA * F0
+        share = 1 - p_base[near].sum() / p_all[near].sum()
+        assert (share < 0.25) if kind == "mode" else (share > 0.75)
+        ds = record_modes(cfg, rec, orders=[CROSSING], speeds={"shaft2": 2.0}
+                          if speed == "speed" else None)
+        rows = [r for r in modes_table_rows(ds, "lines")
+                if abs(r["frequency_hz"] - F0) <= 0.01 * F0]
+        assert rows, "the diagrams hold a cluster at the mode"
+        assert {r["kind"] for r in rows} == {kind}, rows
+        if kind == "mode":
+            assert all(f"order {CROSSING:.4g}" in r["evidence"] and "crosses" in r["evidence"]
+                       for r in rows), rows
+            assert all(band[0] <= r["frequency_hz"] <= band[1] for r in rows)
 
 
 def test_lines_alone_set_no_model_order():

@@ -124,3 +124,17 @@ def test_conditioned_record_is_condition_of_the_stacked_signals():
                                   condition([removed["a"].values], fs, 0.5, 1000.0)[:, 0])
     with pytest.raises(ValueError, match="not in the record"):
         rec(["c"], "tsa")
+
+
+@pytest.mark.parametrize("fs_out", [1000.0, 5000.0])
+def test_conditioned_samples_times_are_where_a_ramp_says(fs_out):
+    # a linear-phase FIR of unit DC gain passes a ramp delayed by its group delay, exactly:
+    # the conditioned ramp of the time axis is the time each sample was taken
+    fs, n, t0 = 5000.0, 20_000, 3.25
+    t = t0 + np.arange(n) / fs
+    ds = xr.Dataset({"ramp": ("time", t)}, coords={"time": t},
+                    attrs={"sample_rate": fs, "record_kind": "measured"})
+    rec = ConditionedRecord(ds, {}, fs, 0.5, fs_out)
+    got = rec(["ramp"], "raw")[:, 0] + np.mean(t[:int(0.5 * fs)])  # operating point back
+    assert rec.times().shape == got.shape
+    np.testing.assert_allclose(rec.times(), got, rtol=0, atol=1e-9)

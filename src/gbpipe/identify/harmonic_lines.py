@@ -12,9 +12,10 @@ speed spans ``[f_low, f_high]`` (from the tachometer pulse train), so order ``k`
 The candidate orders are the shaft orders ``1 .. n_harmonics`` of the tacho shaft
 (unbalance and misalignment are always there) plus the orders the user lists for the
 record (``measured.<record>.orders``) or the excitation families a simulated record was
-built with. A mode that happens to lie inside a band is reported as ``harmonic``: the data
-of one speed range cannot separate the two, and the label says so rather than claiming a
-mode (docs/modal.md, "Criteria").
+built with. Here a mode that happens to lie inside a band is ``harmonic``: the band
+alone cannot separate the two. :mod:`gbpipe.identify.mode_kinds` measures the line itself
+with the shaft's angle (:func:`reference_angle`) and keeps a mode that a weak line
+crosses (docs/modal.md, "Criteria").
 """
 
 from __future__ import annotations
@@ -24,12 +25,13 @@ from typing import NamedTuple
 
 import numpy as np
 import xarray as xr
+from scipy.integrate import cumulative_trapezoid
 
 from gbpipe.errors import ConfigError, DataError
-from gbpipe.harmonics import check_pulse_times
+from gbpipe.harmonics import check_pulse_times, shaft_angle
 
 __all__ = ["HarmonicBands", "shaft_frequency_range", "speed_frequency_range", "harmonic_bands",
-           "record_harmonic_bands", "order_one", "label_poles", "KINDS"]
+           "record_harmonic_bands", "reference_angle", "order_one", "label_poles", "KINDS"]
 
 #: The labels :func:`label_poles` gives (a cluster can also be ``spurious``:
 #: :mod:`gbpipe.identify.mode_kinds`).
@@ -229,6 +231,42 @@ def record_harmonic_bands(record: xr.Dataset, orders: Sequence[float], resolutio
                         "speed or angle signal its shaft_order, or remove orders")
     empty = np.array([])
     return HarmonicBands(empty, empty, empty, (np.nan, np.nan))
+
+
+def reference_angle(record: xr.Dataset, times: np.ndarray,
+                    speeds: Mapping[str, float] | None = None) -> np.ndarray | None:
+    """The angle [rad] of the shaft :func:`record_harmonic_bands` refers the orders to.
+
+    From the tachometer's pulses when the record has them (piecewise cubic through
+    ``2 pi k / pulses_per_rev``, NaN outside the pulse train), else by integrating the
+    first of ``speeds`` (a speed of a shaft at ``shaft_order`` times the reference) over
+    the record's ``time``. Order ``k`` of the record's lines is then ``exp(i k angle)``.
+
+    Parameters
+    ----------
+    record : xarray.Dataset
+        A record as read (``time`` [s]; ``pulse_time`` [s] or the speed signals [rad/s]).
+    times : ndarray
+        Where to evaluate [s on the record's time axis].
+    speeds : mapping str -> float, optional
+        Speed signal name -> shaft order of its shaft, as for
+        :func:`record_harmonic_bands`.
+
+    Returns
+    -------
+    ndarray or None
+        The angle at ``times``; None for a record with no speed.
+    """
+    times = np.asarray(times, dtype=float)
+    if "pulse_time" in record:
+        return shaft_angle(times, np.asarray(record["pulse_time"].values, dtype=float),
+                           pulses_per_rev=int(record.attrs["pulses_per_rev"]))
+    for name, shaft_order in (speeds or {}).items():
+        t = np.asarray(record["time"].values, dtype=float)
+        turned = cumulative_trapezoid(np.asarray(record[name].values, dtype=float), t,
+                                      initial=0.0)
+        return np.interp(times, t, turned / float(shaft_order), left=np.nan, right=np.nan)
+    return None
 
 
 def order_one(lines_hz: np.ndarray, orders: Sequence[float], resolution_hz: float,

@@ -34,6 +34,7 @@ from gbpipe.identify.bench_data import operating_point_settle
 from gbpipe.identify.harmonic_lines import (
     HarmonicBands,
     record_harmonic_bands,
+    reference_angle,
     speed_frequency_range,
 )
 from gbpipe.identify.mode_kinds import Cluster, Evidence, PairingData, record_evidence
@@ -164,13 +165,12 @@ def record_modes(cfg: Mapping[str, Any], record: xr.Dataset,
     fs_id = float(s["sample_rate"])
     resolution = 1.0 / float(s["nonparametric"]["segment"])
     st = s["stabilization"]
-    # before any long work: the bands of a measured speed (a tacho, or a speed signal);
-    # without one the orders wait for the record's own order-1 line (mode_kinds)
+    # before long work: the bands of a measured speed (a tacho, or a speed signal); without
+    # one the orders wait for the record's own order-1 line (mode_kinds)
     speed = "pulse_time" in record or bool(speeds)
     bands = record_harmonic_bands(record, orders if speed else (), resolution,
                                   st["shaft_harmonics"], s["frf"]["f_max"], speeds=speeds)
-    # the operating point as the identify stage takes it: the mean before the inputs'
-    # first excitation in the band (at most campaign.settle)
+    # the operating point as the identify stage takes it (before the first excitation)
     inputs = list(dict.fromkeys(n for p in s["pairings"] for n in p["inputs"]))
     settle, _ = operating_point_settle(record, None, inputs, "raw",
                                        float(cfg["campaign"]["settle"]), s)
@@ -179,13 +179,14 @@ def record_modes(cfg: Mapping[str, Any], record: xr.Dataset,
     for p in s["pairings"]:  # every signal is there before the first (long) diagram
         rec(list(p["inputs"]) + list(p["outputs"]) + list(p.get("reference", [])), "raw")
     results, refs, data = [], [], []
+    angle = reference_angle(record, rec.times(), speeds) if speed else None  # of the lines
     for p in s["pairings"]:
         u, y = rec(p["inputs"], "raw"), rec(p["outputs"], "raw")
         r = rec(p["reference"], "raw") if "reference" in p else None
         refs.append(nonparametric_reference(u, y, fs_id, s, r))
         data.append(PairingData(y, list(p["outputs"]), fs_id, refs[-1].frequency,
                                 refs[-1].coherence.reshape(refs[-1].frequency.size, -1)
-                                .max(axis=1)))
+                                .max(axis=1), angle))
         results.append(_diagrams(u, y, _whole_band(u, y, fs_id, s, r), 1.0 / fs_id, s))
         for method, res in results[-1].items():
             if isinstance(res, str):

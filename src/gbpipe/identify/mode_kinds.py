@@ -8,7 +8,12 @@ A stable cluster of a stabilization diagram is one of three things:
 
     * the **speed**: the cluster lies on an order line of a measured speed
       (:mod:`gbpipe.identify.harmonic_lines`), or of the record's own order-1 line
-      (:func:`gbpipe.identify.harmonic_lines.order_one`);
+      (:func:`gbpipe.identify.harmonic_lines.order_one`). With a measured speed the line
+      itself is measured too: its order-locked phasor (:func:`line_share`) carries at
+      least ``LINE_SHARE`` of the power in the cluster's band, or the cluster fails
+      one of the tests below, or its band is not coherent. Otherwise the cluster is the
+      mode the line crosses (a line explains a band it dominates; a mode's random
+      response that holds most of the band is the mode's, whatever line passes);
     * the **PDF** of the response in the cluster's band (Brincker, Andersen & Møller,
       "Identification of harmonics in operational modal analysis", IMAC 2000; Jacobs et
       al., "Harmonic detection in OMA", ISMA 2008): the band-passed response of a mode
@@ -55,11 +60,12 @@ from typing import NamedTuple
 import numpy as np
 from scipy import signal, stats
 
+from gbpipe.identify.band_signal import FILTER_ORDER, band_envelope, line_share
 from gbpipe.identify.harmonic_lines import HarmonicBands, order_one
 
-__all__ = ["KINDS", "ALPHA", "Evidence", "band_envelope", "kurtosis_statistic",
+__all__ = ["KINDS", "ALPHA", "Evidence", "kurtosis_statistic",
            "kurtosis_limit", "Drift", "peak_drift", "resolvable_damping", "cluster_evidence",
-           "on_line", "Cluster", "PairingData", "record_evidence"]
+           "on_line", "LINE_SHARE", "Cluster", "PairingData", "record_evidence"]
 
 #: The kinds of a cluster.
 KINDS = ("mode", "harmonic", "spurious")
@@ -69,9 +75,9 @@ ALPHA = 1e-3
 #: Monte Carlo draws of the statistic under the mode hypothesis (its mean and spread of
 #: the log; the log-normal tail is taken, see :func:`kurtosis_limit`).
 _DRAWS = 1000
-#: Order of the Butterworth low-pass of the complex demodulation (applied forward and
-#: backward: |L|^4 of an order-4 filter, flat to within 0.1 dB to 0.7 of the cut-off).
-_FILTER_ORDER = 4
+#: Share of a cluster's band power [1] from which an order line measured in it, not the
+#: mode it crosses, is what the cluster fits: the line then holds most of the band.
+LINE_SHARE = 0.5
 
 
 class Evidence(NamedTuple):
@@ -107,39 +113,6 @@ def _half_width(frequency_hz: float, damping: float, resolution_hz: float) -> fl
     return max(resolution_hz, 2.0 * damping * frequency_hz)
 
 
-def band_envelope(x: np.ndarray, fs: float, f0: float, half_width: float
-                  ) -> tuple[np.ndarray, float]:
-    """The complex band signal of ``x`` around ``f0``: demodulated, low-passed, decimated.
-
-    Parameters
-    ----------
-    x : ndarray, shape (N,)
-        Signal, any unit, sampled at ``fs`` [Hz].
-    f0 : float
-        Centre of the band [Hz].
-    half_width : float
-        Half-width of the band [Hz] (the low-pass cut-off).
-
-    Returns
-    -------
-    z : ndarray of complex, shape (M,)
-        The band signal (``x``'s unit), sampled at four times the half-width or more,
-        without the filter's start-up at either end.
-    fs_z : float
-        Its sample rate [Hz].
-    """
-    t = np.arange(x.size) / fs
-    cut = min(half_width, 0.45 * fs)
-    sos = signal.butter(_FILTER_ORDER, cut, fs=fs, output="sos")
-    z = signal.sosfiltfilt(sos, (x - x.mean()) * np.exp(-2j * np.pi * f0 * t))
-    # the filter's start-up at either end (the record's first sample is a step from the
-    # padding): a burst that no mode makes, dropped; 2 / cut is about three time
-    # constants of the order-4 low-pass
-    edge = min(int(2.0 * fs / cut), x.size // 4)
-    step = max(1, int(fs // (4.0 * cut)))
-    return z[edge:x.size - edge:step], fs / step
-
-
 def kurtosis_statistic(z: np.ndarray) -> np.ndarray:
     """``1.5 E|z|^4 / (E|z|^2)^2`` along the last axis: the kurtosis of the real band signal
     (sinusoid 1.5, Gaussian 3) [1]."""
@@ -163,7 +136,7 @@ def kurtosis_limit(f0: float, damping: float, half_width: float, fs_z: float, n:
     nu = np.fft.fftfreq(n, 1.0 / fs_z)
     f = f0 + nu
     mode = 1.0 / np.abs(f0 ** 2 - f ** 2 + 2j * damping * f0 * f) ** 2
-    low = 1.0 / (1.0 + (nu / half_width) ** (2 * _FILTER_ORDER)) ** 2
+    low = 1.0 / (1.0 + (nu / half_width) ** (2 * FILTER_ORDER)) ** 2
     shape = np.sqrt(mode * low)
     logs = []
     for _ in range(0, _DRAWS, 250):  # batches bound the memory of long bands
@@ -235,7 +208,8 @@ def on_line(frequency_hz: float, bands: HarmonicBands) -> float:
 def cluster_evidence(frequency_hz: float, damping: float, outputs: Sequence[np.ndarray],
                      names: Sequence[str], fs: float, coherence_f: np.ndarray,
                      coherence: np.ndarray, resolution_hz: float, coherence_min: float,
-                     bands: HarmonicBands, rng: np.random.Generator) -> Evidence:
+                     bands: HarmonicBands, rng: np.random.Generator,
+                     angle: np.ndarray | None = None) -> Evidence:
     """The kind of one cluster and why (module docstring).
 
     Parameters
@@ -257,6 +231,11 @@ def cluster_evidence(frequency_hz: float, damping: float, outputs: Sequence[np.n
         The order lines of a measured speed (empty without one).
     rng : numpy.random.Generator
         For the Monte Carlo draws of the kurtosis limit.
+    angle : ndarray, optional
+        The reference shaft's angle at the outputs' samples [rad]
+        (:func:`gbpipe.identify.harmonic_lines.reference_angle`): a cluster on an order
+        line is then a line only where the line holds its band (:func:`line_share`);
+        without it every cluster on a line is one.
     """
     f, zeta = float(frequency_hz), float(damping)
     w = _half_width(f, zeta, resolution_hz)
@@ -303,21 +282,39 @@ def cluster_evidence(frequency_hz: float, damping: float, outputs: Sequence[np.n
                                     f"{', '.join(f'{k:.4g}' for k in crossed)}: the PDF "
                                     "test does not decide"]),
              f"coherence <= {coh:.2f} in {band}"]
-    if np.isfinite(order):
+    sinusoid = kurt < limit and pdf_test
+    drifts = passes and drift.p < alpha and drift_test
+    share = bound = np.nan
+    if np.isfinite(order) and angle is not None:
+        share = max(line_share(x, fs, angle, order, f, w) for x in outputs)
+        # the random response's projection on the line is of rms sqrt(S / 2T) in
+        # amplitude, S / 2T = E|z|^2 / (2 w T) of the band's power: the line is taken to
+        # hold its band unless its share's upper bound at the test's alpha is below half
+        bound = (np.sqrt(share) + stats.norm.isf(alpha) / np.sqrt(2 * w * duration)) ** 2
+        facts.insert(0, f"the line of order {order:.4g} of {bands.source} has {share:.2f} "
+                        f"times the power in {band} (at most {bound:.2f} with "
+                        f"{100 * (1 - alpha):.2f} %; above 1: it sweeps wider)")
+    held = not bound < LINE_SHARE  # NaN (no angle): the line is taken to hold its band
+    if np.isfinite(order) and (held or sinusoid or drifts or zeta < zeta_res
+                               or coh < coherence_min):
         kind, why = "harmonic", f"order {order:.4g} of {bands.source}"
     elif zeta < zeta_res:
         kind, why = "harmonic", (f"damping {zeta:.5f} below the record's resolution "
                                  f"{zeta_res:.5f} (decays slower than the {duration:.0f} s "
                                  "record)")
-    elif kurt < limit and pdf_test:
+    elif sinusoid:
         kind, why = "harmonic", f"kurtosis {kurt:.2f} below {limit:.2f} (sinusoid)"
-    elif passes and drift.p < alpha and drift_test:
+    elif drifts:
         kind, why = "harmonic", (f"its peak drifts with time (Spearman {drift.rho:.2f}, p "
                                  f"{drift.p:.1e} < {alpha:.1e}): a line following a shaft's "
                                  "speed")
     elif coh < coherence_min:
         kind, why = "spurious", (f"coherence {coh:.2f} below coherence_min "
                                  f"{coherence_min:g} in {band} (noise fitted)")
+    elif np.isfinite(order):
+        kind, why = "mode", (f"a mode order {order:.4g} of {bands.source} crosses: the line "
+                             f"has under {LINE_SHARE:g} times the power in its band, which "
+                             "is Gaussian, resolved and coherent")
     else:
         kind, why = "mode", "Gaussian in its band, resolved, coherent" + (
             f", on no order line of {bands.source}" if bands.source else "")
@@ -334,14 +331,16 @@ class Cluster(NamedTuple):
 
 class PairingData(NamedTuple):
     """What the tests read of one pairing: its conditioned outputs (``y`` (N, ny), names,
-    rate ``fs`` [Hz]) and the highest coherence over its FRF elements [1] per frequency
-    [Hz] of its nonparametric estimate."""
+    rate ``fs`` [Hz]), the highest coherence over its FRF elements [1] per frequency
+    [Hz] of its nonparametric estimate, and the reference shaft's angle at the outputs'
+    samples [rad] (None: no speed measured)."""
 
     y: np.ndarray
     names: Sequence[str]
     fs: float
     frequency: np.ndarray
     coherence: np.ndarray
+    angle: np.ndarray | None = None
 
 
 def record_evidence(clusters: Sequence[Cluster], data: Sequence[PairingData],
@@ -369,7 +368,8 @@ def record_evidence(clusters: Sequence[Cluster], data: Sequence[PairingData],
     ev = [cluster_evidence(c.frequency_hz, c.damping, list(data[c.pairing].y.T),
                            data[c.pairing].names, data[c.pairing].fs,
                            data[c.pairing].frequency, data[c.pairing].coherence,
-                           resolution_hz, coherence_min, bands, rng) for c in clusters]
+                           resolution_hz, coherence_min, bands, rng,
+                           data[c.pairing].angle) for c in clusters]
     if bands.source:
         return ev, bands
     lines = np.array([c.frequency_hz for c, e in zip(clusters, ev, strict=True)

@@ -35,7 +35,7 @@ from gbpipe.errors import ConfigError, DataError
 from gbpipe.io import measured_signal
 
 __all__ = ["VERSIONS", "VALIDATION_PARTNER", "operating_point", "decimation_filter",
-           "decimate", "condition", "version_signals", "ConditionedRecord"]
+           "decimate", "decimated_times", "condition", "version_signals", "ConditionedRecord"]
 
 #: Data versions that need no removal method of their own (``tsa`` is the paper's TSA of
 #: ``tsa.tests``); any other version names a ``removal`` method run on the tests.
@@ -111,6 +111,14 @@ def decimation_filter(fs: float, fs_out: float, cutoff: float = 0.8,
     h = signal.firwin(numtaps, 0.5 * (1 + cutoff) * fs_out / 2, width=(1 - cutoff) * fs_out / 2,
                       fs=fs)
     return h, q
+
+
+def decimated_times(n: int, fs: float, fs_out: float, cutoff: float = 0.8) -> np.ndarray:
+    """When the samples :func:`decimate` makes of ``n`` input samples were taken [s from the
+    first input sample]: output ``k`` is the filter output at input sample
+    ``len(h) - 1 + q k``, which the linear-phase FIR delays by ``(len(h) - 1) / 2``."""
+    h, q = decimation_filter(fs, fs_out, cutoff)
+    return (np.arange(len(h) - 1, n, q) - 0.5 * (len(h) - 1)) / fs
 
 
 def decimate(x: np.ndarray, fs: float, fs_out: float, cutoff: float = 0.8) -> np.ndarray:
@@ -247,3 +255,8 @@ class ConditionedRecord:
                               self.fs, self.settle, self.fs_out, self.cutoff)
                 self._columns[version, n] = x[:, 0]
         return np.column_stack([self._columns[version, n] for n in names])
+
+    def times(self) -> np.ndarray:
+        """When the conditioned samples were taken [s on the record's time axis]."""
+        return float(self.ds["time"].values[0]) + decimated_times(
+            self.ds.sizes["time"], self.fs, self.fs_out, self.cutoff)
