@@ -95,6 +95,9 @@ def line_share(x: np.ndarray, fs: float, angle: np.ndarray, orders: Sequence[flo
     average the line away) and averaged; the lines of ``orders`` add. The bound adds
     ``z_alpha`` standard errors, ``sqrt(2 |c|^2 s2 / m + (s2 / m)^2)`` per stretch. Powers
     are in :func:`band_envelope`'s convention (a sinusoid of amplitude ``a``: ``a^2 / 4``).
+    (:func:`gbpipe.harmonics.tracking.order_amplitudes` measures orders too, but on the
+    angle-resampled record of a tacho and windowed; here a speed signal serves as well,
+    and the segments' scatter is the point.)
 
     Parameters
     ----------
