@@ -3,6 +3,8 @@ an independent simulation (scipy), and on records with known modes and lines."""
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pytest
 import xarray as xr
@@ -61,11 +63,13 @@ def test_band_kurtosis_of_a_sine_in_noise_is_the_closed_form():
 @pytest.mark.parametrize("amp", [0.0, 0.6, 1.5, 6.0])
 def test_line_share_is_the_lines_power_over_the_bands(amp):
     # a mode's random response r plus an angle-locked line of amplitude a drifting 1 %
-    # through its band. The share is (a / 2)^2 over the band's power; the band's power
-    # is integrated from scipy's Welch PSD of the sum through the band filter's gain
-    # (order-4 Butterworth low-pass, forward and backward: 1 / (1 + (df / w)^8)^2). The
-    # line's estimate carries r's projection, of rms sqrt(S_r / (2 T)) (S_r r's one-sided
-    # PSD at the line, T the record): 3 of those bound its amplitude's error.
+    # through its band: the line's power (a / 2)^2 in the band signal's convention. The
+    # band's power is integrated from scipy's Welch PSD of the sum through the band
+    # filter's gain (order-4 Butterworth low-pass, forward and backward:
+    # 1 / (1 + (df / w)^8)^2). Per 2 s segment r projects on the line with power
+    # s2 = S_r / (2 T_s) (S_r r's one-sided PSD there); over B segments the line's
+    # power is then known to sqrt((2 (a/2)^2 s2 + s2^2) / B) (the floor's own error
+    # taken as a quarter of the last term)
     rng = np.random.default_rng(4)
     t = np.arange(int(200 * FS)) / FS
     f_shaft = 12.0 * (1 + 0.01 * t / t[-1])
@@ -76,11 +80,26 @@ def test_line_share_is_the_lines_power_over_the_bands(amp):
     gain = 1 / (1 + ((f - 60.6) / 3.0) ** 8) ** 2
     band_power = np.sum(pxx * gain) * (f[1] - f[0]) / 2  # of the complex band signal
     fr, pr = signal.welch(r / r.std(), FS, nperseg=int(20 * FS))
-    sigma = np.sqrt(np.interp(60.3, fr, pr) / (2 * t[-1]))
-    got = np.sqrt(line_share(x, FS, angle, 5.0, 60.6, 3.0) * band_power)
-    assert abs(got - amp / 2) <= 3 * sigma + 0.01 * amp
-    # the angle is what tells the line: off by a shaft order, only r's projection is left
-    assert np.sqrt(line_share(x, FS, angle, 4.0, 60.6, 3.0) * band_power) <= 3 * sigma
+    seg = 2.0
+    s2 = np.mean(np.interp([60.0, 60.3, 60.6], fr, pr)) / (2 * seg)
+    b = int(t[-1] / seg)
+    sd = np.sqrt((2 * (amp / 2) ** 2 * s2 + 1.25 * s2 ** 2) / b)
+    got = line_share(x - x.mean(), FS, angle, [5.0], seg, band_power, 3.0)
+    assert abs(got.share * band_power - (amp / 2) ** 2) <= 4 * sd
+    assert got.bound * band_power >= (amp / 2) ** 2  # the bound bounds
+    # the angle is what tells the line: off by a shaft order, only the floor is left
+    off = line_share(x - x.mean(), FS, angle, [4.0], seg, band_power, 3.0)
+    assert off.share * band_power <= 4 * np.sqrt(1.25 * s2 ** 2 / b)
+    # an order rounded off by 2e-4 turns the line 3 rad over the record, 0.03 rad in a
+    # segment: the segments still hold it
+    near = line_share(x - x.mean(), FS, angle, [5.0002], seg, band_power, 3.0)
+    assert near.share * band_power == pytest.approx(got.share * band_power,
+                                                    rel=0.01, abs=4 * sd)
+    # two orders whose bands overlap: their powers add (the absent one's estimate
+    # scatters about 0 by the floor's error)
+    both = line_share(x - x.mean(), FS, angle, [5.0, 4.0], seg, band_power, 3.0)
+    assert both.share * band_power == pytest.approx(got.share * band_power,
+                                                    abs=4 * np.sqrt(1.25 * s2 ** 2 / b))
 
 
 @pytest.mark.parametrize(("f0", "zeta"), [(24.0, 0.01), (150.0, 0.03)])
@@ -334,6 +353,13 @@ def test_a_line_through_the_mode_is_the_mode_where_it_holds_little_of_the_band(s
                 if abs(r["frequency_hz"] - F0) <= 0.01 * F0]
         assert rows, "the diagrams hold a cluster at the mode"
         assert {r["kind"] for r in rows} == {kind}, rows
+        # the line's measured share decided (not the PDF or drift test): its bound
+        for r in rows:
+            got = re.search(r"has ([0-9.]+) times the power in \S+ Hz \(at most ([0-9.]+)",
+                            r["evidence"])
+            assert got, r["evidence"]
+            assert (float(got[2]) < 0.5) if kind == "mode" else (float(got[2]) >= 0.5)
+            assert float(got[1]) == pytest.approx(share, abs=0.1 + 0.1 * share)
         if kind == "mode":
             assert all(f"order {CROSSING:.4g}" in r["evidence"] and "crosses" in r["evidence"]
                        for r in rows), rows

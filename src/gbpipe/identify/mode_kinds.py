@@ -9,11 +9,12 @@ A stable cluster of a stabilization diagram is one of three things:
     * the **speed**: the cluster lies on an order line of a measured speed
       (:mod:`gbpipe.identify.harmonic_lines`), or of the record's own order-1 line
       (:func:`gbpipe.identify.harmonic_lines.order_one`). With a measured speed the line
-      itself is measured too: its order-locked phasor (:func:`line_share`) carries at
-      least ``LINE_SHARE`` of the power in the cluster's band, or the cluster fails
-      one of the tests below, or its band is not coherent. Otherwise the cluster is the
-      mode the line crosses (a line explains a band it dominates; a mode's random
-      response that holds most of the band is the mode's, whatever line passes);
+      itself is measured too (:func:`gbpipe.identify.band_signal.line_share`): the
+      cluster is a line when the upper bound of the lines' share of its band's power
+      reaches ``LINE_SHARE``, or one of the tests below calls it a line, or its band is
+      not coherent. Otherwise it is the mode the line crosses (a line explains a band it
+      dominates; a mode's random response that holds most of the band is the mode's,
+      whatever line passes);
     * the **PDF** of the response in the cluster's band (Brincker, Andersen & Møller,
       "Identification of harmonics in operational modal analysis", IMAC 2000; Jacobs et
       al., "Harmonic detection in OMA", ISMA 2008): the band-passed response of a mode
@@ -75,8 +76,8 @@ ALPHA = 1e-3
 #: Monte Carlo draws of the statistic under the mode hypothesis (its mean and spread of
 #: the log; the log-normal tail is taken, see :func:`kurtosis_limit`).
 _DRAWS = 1000
-#: Share of a cluster's band power [1] from which an order line measured in it, not the
-#: mode it crosses, is what the cluster fits: the line then holds most of the band.
+#: Share of a cluster's band power [1] from which the order lines measured in it, not the
+#: mode they cross, are what the cluster fits (the bound of the share is compared).
 LINE_SHARE = 0.5
 
 
@@ -126,7 +127,8 @@ def kurtosis_limit(f0: float, damping: float, half_width: float, fs_z: float, n:
 
     The hypothesis: the response of a single mode of natural frequency ``f0`` [Hz] and
     damping ratio ``damping`` [1] to white noise, through the band filter of
-    :func:`band_envelope` (``half_width`` [Hz]), ``n`` samples at ``fs_z`` [Hz]. Its
+    :func:`gbpipe.identify.band_signal.band_envelope` (``half_width`` [Hz]), ``n``
+    samples at ``fs_z`` [Hz]. Its
     complex band signal is drawn ``_DRAWS`` times by shaping white Gaussian noise with
     the mode's and the filter's spectrum; the limit is ``exp(mean - z_alpha sd)`` of the
     log statistic (the sample kurtosis is bounded below by 1 and skewed: its log is
@@ -247,8 +249,10 @@ def cluster_evidence(frequency_hz: float, damping: float, outputs: Sequence[np.n
     # the drift test's band: the cluster's, at least the Hann main lobe about the pole's
     # located frequency (module docstring)
     wt = max(w, 3.0 * resolution_hz)
+    power = []  # of each output's band signal
     for x, name in zip(outputs, names, strict=True):
         z, fs_z = band_envelope(np.asarray(x, float), fs, f, w)
+        power.append(float(np.mean(np.abs(z) ** 2)))
         k = float(kurtosis_statistic(z))
         lim = kurtosis_limit(f, max(zeta, zeta_res), w, fs_z, z.size, alpha, rng)
         if k - lim < kurt - (limit if np.isfinite(limit) else 0.0):
@@ -286,14 +290,21 @@ def cluster_evidence(frequency_hz: float, damping: float, outputs: Sequence[np.n
     drifts = passes and drift.p < alpha and drift_test
     share = bound = np.nan
     if np.isfinite(order) and angle is not None:
-        share = max(line_share(x, fs, angle, order, f, w) for x in outputs)
-        # the random response's projection on the line is of rms sqrt(S / 2T) in
-        # amplitude, S / 2T = E|z|^2 / (2 w T) of the band's power: the line is taken to
-        # hold its band unless its share's upper bound at the test's alpha is below half
-        bound = (np.sqrt(share) + stats.norm.isf(alpha) / np.sqrt(2 * w * duration)) ** 2
-        facts.insert(0, f"the line of order {order:.4g} of {bands.source} has {share:.2f} "
-                        f"times the power in {band} (at most {bound:.2f} with "
-                        f"{100 * (1 - alpha):.2f} %; above 1: it sweeps wider)")
+        # every measured line whose band holds the cluster (bands overlap where the speed
+        # range is wide or a mesh order meets a shaft harmonic)
+        lines = bands.order[(bands.low_hz <= f) & (f <= bands.high_hz)]
+        shares = [line_share(np.asarray(x, float) - np.mean(x), fs, angle, lines,
+                             1.0 / resolution_hz, p, stats.norm.isf(alpha))
+                  for x, p in zip(outputs, power, strict=True)]
+        named = (f"the line{'s' if lines.size > 1 else ''} of order "
+                 f"{', '.join(f'{k:.4g}' for k in lines)} of {bands.source}")
+        if any(np.isfinite(r.bound) for r in shares):
+            share, bound = np.nanmax(shares, axis=0)
+            facts.insert(0, f"{named} {'have' if lines.size > 1 else 'has'} {share:.2f} "
+                            f"times the power in {band} (at most {bound:.2f} with "
+                            f"{100 * (1 - alpha):.2f} %; above 1: wider than the band)")
+        else:  # held, as without an angle
+            facts.insert(0, f"{named} not measured (under two segments with an angle)")
     held = not bound < LINE_SHARE  # NaN (no angle): the line is taken to hold its band
     if np.isfinite(order) and (held or sinusoid or drifts or zeta < zeta_res
                                or coh < coherence_min):
@@ -312,9 +323,9 @@ def cluster_evidence(frequency_hz: float, damping: float, outputs: Sequence[np.n
         kind, why = "spurious", (f"coherence {coh:.2f} below coherence_min "
                                  f"{coherence_min:g} in {band} (noise fitted)")
     elif np.isfinite(order):
-        kind, why = "mode", (f"a mode order {order:.4g} of {bands.source} crosses: the line "
-                             f"has under {LINE_SHARE:g} times the power in its band, which "
-                             "is Gaussian, resolved and coherent")
+        kind, why = "mode", (f"a mode that order {order:.4g} of {bands.source} crosses: the "
+                             f"line has under {LINE_SHARE:g} times the power in its band, "
+                             "which is Gaussian, resolved and coherent")
     else:
         kind, why = "mode", "Gaussian in its band, resolved, coherent" + (
             f", on no order line of {bands.source}" if bands.source else "")

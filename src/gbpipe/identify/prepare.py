@@ -114,9 +114,23 @@ def decimation_filter(fs: float, fs_out: float, cutoff: float = 0.8,
 
 
 def decimated_times(n: int, fs: float, fs_out: float, cutoff: float = 0.8) -> np.ndarray:
-    """When the samples :func:`decimate` makes of ``n`` input samples were taken [s from the
-    first input sample]: output ``k`` is the filter output at input sample
-    ``len(h) - 1 + q k``, which the linear-phase FIR delays by ``(len(h) - 1) / 2``."""
+    """When the samples :func:`decimate` makes of ``n`` input samples were taken.
+
+    Output ``k`` is the filter output at input sample ``len(h) - 1 + q k``, which the
+    linear-phase FIR delays by ``(len(h) - 1) / 2`` samples.
+
+    Parameters
+    ----------
+    n : int
+        Input samples.
+    fs, fs_out, cutoff : float
+        As :func:`decimate`.
+
+    Returns
+    -------
+    ndarray
+        Times of the output samples [s from the first input sample].
+    """
     h, q = decimation_filter(fs, fs_out, cutoff)
     return (np.arange(len(h) - 1, n, q) - 0.5 * (len(h) - 1)) / fs
 
