@@ -236,7 +236,8 @@ def cluster_evidence(frequency_hz: float, damping: float, outputs: Sequence[np.n
     angle : ndarray, optional
         The reference shaft's angle at the outputs' samples [rad]
         (:func:`gbpipe.identify.harmonic_lines.reference_angle`): a cluster on an order
-        line is then a line only where the line holds its band (:func:`line_share`);
+        line is then a line only where the line holds its band
+        (:func:`gbpipe.identify.band_signal.line_share`);
         without it every cluster on a line is one.
     """
     f, zeta = float(frequency_hz), float(damping)
