@@ -135,12 +135,15 @@ class SharedRuns:
         threading.Thread(target=self._build_all, name="shared runs", daemon=True).start()
 
     def _build_all(self) -> None:
-        for name, done in self._done.items():
-            try:
-                self._results[name] = (True, BUILDERS[name](self._tmp))
-            except BaseException as err:   # raised in the test that needs the run
-                self._results[name] = (False, err)
-            done.set()
+        try:
+            for name, done in self._done.items():
+                try:
+                    self._results[name] = (True, BUILDERS[name](self._tmp))
+                except BaseException as err:   # raised in the test that needs the run
+                    self._results[name] = (False, err)
+                done.set()
+        finally:
+            BUILDS_ENDED.set()
 
     def __contains__(self, name: str) -> bool:
         return name in self._done
@@ -161,6 +164,12 @@ class SharedRuns:
 
 #: The session's background builds (set when collection ends).
 _SHARED: list[SharedRuns] = []
+
+#: Set when this process's background builds of the shared runs have ended, or when
+#: collection ends and it starts none: tests/cluster/conftest.py starts the SLURM runs
+#: after it (their jobs would take the cores from the builds every other test of
+#: `RUNS_GROUP` waits for).
+BUILDS_ENDED = threading.Event()
 
 
 #: The xdist group of every test that reads a shared run or the local SLURM.
@@ -263,6 +272,8 @@ def pytest_collection_finish(session):
     if names and tests_will_run(session):
         factory = session_tmp_path_factory(session)
         start_in_background(session, lambda: _SHARED.append(SharedRuns(names, factory)))
+    else:
+        BUILDS_ENDED.set()
 
 
 #: Summary lines the xdist workers sent (`summary_lines` of tests/cluster/conftest.py),

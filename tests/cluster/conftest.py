@@ -10,8 +10,10 @@ Any other failure to start it is an error, never a skip. The seconds of the inst
 of each start-up step are printed at the end of the session.
 
 A test names the runs it reads with ``@pytest.mark.slurm_runs(name, ...)``. Once
-collection ends, a background thread installs and starts the cluster and then starts
-every run that the selected tests name, at once: the cluster runs their jobs side by side
+collection ends, a background thread installs and starts the cluster and then, once the
+shared runs of tests/conftest.py are built (`BUILDS_ENDED`: the tests of their group wait
+for those builds, and the cluster tests come last), starts every run that the selected
+tests name, at once: the cluster runs their jobs side by side
 (most of a run's time is its Snakemake's start-ups and waits between status queries, not
 its jobs' work), while the rest of the suite goes on, which the cluster tests therefore
 follow (tests/conftest.py moves them to the end of the session). The ``slurm`` and
@@ -28,6 +30,7 @@ from slurm_local import LocalSlurm, SlurmUnavailable, install
 from slurm_runs import MEMORY, RetryRun, SlurmRun
 
 from tests.conftest import (
+    BUILDS_ENDED,
     STUDY_CONFIGS,
     apt_lock,
     session_tmp_path_factory,
@@ -59,6 +62,9 @@ class Background:
                 TIMINGS["install"] = install()
             self.cluster = LocalSlurm(self.tmp.mktemp("slurm"))
             TIMINGS.update(self.cluster.start())
+            # the runs' jobs start once the shared runs are built: every test of their
+            # group waits for those builds, and the cluster tests come last
+            BUILDS_ENDED.wait()
             for name in self.names:
                 self.runs[name] = _start(name, self.cluster, self.tmp)
         except BaseException as err:   # reported by the fixtures, in the test that needs it
