@@ -8,7 +8,7 @@ import pytest
 import xarray as xr
 from scipy import signal
 
-import gbpipe.identify.modal as modal
+import gbpipe.identify.modal_diagrams as modal_diagrams
 from gbpipe.config import load, merge
 from gbpipe.errors import DataError, ExcitationError
 from gbpipe.identify import record_modes
@@ -80,7 +80,7 @@ def test_failed_diagram_says_why_and_the_other_stands(one_mode, monkeypatch):
     def refuse(*args, **kwargs):
         raise ExcitationError("input torque is not persistently exciting of order 60")
 
-    monkeypatch.setattr(modal, "stabilization_diagram", refuse)
+    monkeypatch.setattr(modal_diagrams, "stabilization_diagram", refuse)
     ds = record_modes(cfg, rec)
     sub = ds.sel({"method": cfg["identify"]["stabilization"]["method"]}).isel(pairing=0)
     assert str(sub.status.values).startswith("failed: ExcitationError: input torque")
@@ -92,6 +92,6 @@ def test_failed_diagram_says_why_and_the_other_stands(one_mode, monkeypatch):
 
 def test_a_speed_that_is_not_a_speed_refused_before_any_diagram(one_mode, monkeypatch):
     cfg, rec = one_mode
-    monkeypatch.setattr(modal, "stabilization_diagram", pytest.fail)  # never reached
+    monkeypatch.setattr(modal_diagrams, "stabilization_diagram", pytest.fail)  # never reached
     with pytest.raises(DataError, match="must be a speed"):
         record_modes(cfg, rec, orders=[23.0], speeds={"torque": 1.0})

@@ -3,7 +3,8 @@
 One panel per diagram method (the subspace method, LSCF): the poles of every model order
 (order on the left axis, frequency across), the stable ones marked, the clusters' poles
 coloured by their kind (mode, harmonic, spurious in grey), each mode with its frequency
-spread over the orders, the order lines' bands shaded and named by their order, each
+spread over the orders, the order lines' bands shaded and named by their order, the zoomed
+bands' edges dotted, each
 cluster labelled with its frequency; the nonparametric FRF's mode indicator behind them
 on the right axis (:func:`gbpipe.identify.record_modes`, docs/modal.md).
 """
@@ -58,6 +59,9 @@ def stabilization_figure(ds: xr.Dataset, pairing: str, record: str,
             ax.axvspan(lo, hi, color="0.85", lw=0, zorder=0)
             ax.text(0.5 * (lo + hi), 0.02 * top, f"{k:.4g}x", rotation=90, fontsize=5,
                     ha="center", va="bottom", color="0.35")
+        for edge in np.atleast_1d(ds.attrs.get("zoom_edges_hz", [])):
+            # below each edge the poles come from the data decimated further (zoom)
+            ax.axvline(edge, color="0.4", ls=":", lw=0.8, zorder=0)
         order = m.order.values[:, None] * np.ones(m.pole_frequency.shape[-1])
         pf, stable = m.pole_frequency.values, m.pole_stable.values > 0
         cluster = m.pole_cluster.values
@@ -104,7 +108,9 @@ def stabilization_figure(ds: xr.Dataset, pairing: str, record: str,
                   "orders at the top; red an order line; grey a noise pole), the order "
                   "lines' bands named by their order over the record's speed range widened "
                   "by the resolution (shaded; the speed: "
-                  f"{ds.attrs.get('speed_source', 'the tacho')}), and the nonparametric "
-                  "FRF's mode indicator (green, right axis).",
+                  f"{ds.attrs.get('speed_source', 'the tacho')}), the edges below which "
+                  "the poles come from the data decimated further (dotted, zoom; the "
+                  "identification rate's own clusters keep theirs), and the "
+                  "nonparametric FRF's mode indicator (green, right axis).",
                   numbers)
     return numbers

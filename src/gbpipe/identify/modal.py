@@ -13,6 +13,10 @@ version) and two stabilization diagrams are read off it:
   that no band edge lies in the reported band), over ``lscf_orders``
   (:func:`gbpipe.sysid.lscf_stabilization`).
 
+Both are fitted again on the data decimated further (zoom, :func:`zoom_bands`), and each
+diagram is read as one joined over those bands: a model of a few dozen states over
+0-Nyquist fits the low end of the band poorly (docs/modal.md, "Zoomed diagrams").
+
 Each cluster of stable poles is labelled ``harmonic`` when it lies on a shaft-order line
 of the record's speed range (:mod:`gbpipe.identify.harmonic_lines`), else ``mode``. The
 subspace diagram's order (the lowest that holds every cluster, harmonics included: the
@@ -37,19 +41,13 @@ from gbpipe.identify.harmonic_lines import (
     reference_angle,
     speed_frequency_range,
 )
+from gbpipe.identify.modal_diagrams import Diagram, diagrams, order_range, zoom_bands
 from gbpipe.identify.mode_kinds import Cluster, Evidence, PairingData, record_evidence
-from gbpipe.identify.orders import order_windows
 from gbpipe.identify.prepare import ConditionedRecord
 from gbpipe.identify.reference import Reference, nonparametric_reference
 from gbpipe.io import longest_segment
 from gbpipe.lti import pad
-from gbpipe.sysid import (
-    Stabilization,
-    held_modes,
-    lowest_order,
-    lscf_stabilization,
-    stabilization_diagram,
-)
+from gbpipe.sysid import held_modes, lowest_order
 
 __all__ = ["record_modes", "modes_table_rows", "TABLE_COLUMNS", "order_range"]
 
@@ -58,68 +56,6 @@ log = logging.getLogger("gbpipe")
 #: Columns of ``tables/modes_measured.csv``, in order.
 TABLE_COLUMNS = ("record", "pairing", "method", "frequency_hz", "damping",
                  "frequency_spread_hz", "damping_spread", "n_orders", "kind", "evidence")
-
-
-def order_range(bounds: Sequence[int], step: int) -> np.ndarray:
-    """Model orders ``bounds[0], bounds[0] + step, ... <= bounds[1]`` (int array)."""
-    return np.arange(int(bounds[0]), int(bounds[1]) + 1, int(step))
-
-
-def _diagrams(u: np.ndarray, y: np.ndarray, ref: Reference, dt: float,
-              s: Mapping[str, Any]) -> dict[str, Stabilization | str]:
-    # both diagrams of one pairing; a failure is kept as its reason (status), not raised
-    st = s["stabilization"]
-    crit = {k: st[k] for k in ("frequency_tolerance", "damping_tolerance", "mac_min")}
-    orders = order_range(st["orders"], st["step"])
-    # the windows of the identify stage, lengthened where the highest order needs more
-    # block rows than they give: a diagram is read off one projection, so its windows
-    # must hold its largest order (the identify stage lengthens them alike)
-    w = order_windows(s, int(orders[-1]), y.shape[1])
-    # (the estimator's own defaults otherwise: on the bench example, PBSID with the
-    # identify stage's estimated feedthrough held no cluster at its 62 Hz mode)
-    windows = (w if st["method"] == "pbsid" else
-               {"past": w["past"], "horizon": w["future"]})
-    out: dict[str, Stabilization | str] = {}
-    jobs = {st["method"]: lambda: stabilization_diagram(
-                u, y, dt, orders, st["method"], max_damping=s["zeta_max"], **windows,
-                **crit),
-            "lscf": lambda: lscf_stabilization(
-                ref.frequency, ref.frf, order_range(st["lscf_orders"], 1), dt,
-                weights=_lscf_weights(ref),
-                max_damping=s["zeta_max"], **crit)}
-    for method, job in jobs.items():
-        try:
-            out[method] = job()
-        except (ValueError, RuntimeError, np.linalg.LinAlgError) as exc:
-            out[method] = f"failed: {type(exc).__name__}: {exc}"
-    return out
-
-
-def _whole_band(u: np.ndarray, y: np.ndarray, fs: float, s: Mapping[str, Any],
-                r: np.ndarray | None) -> Reference:
-    """The nonparametric FRF the LSCF diagram fits: every Welch line but DC, to Nyquist.
-
-    A frequency-domain fit leaves its polynomials free outside the fitted lines, and
-    poles gather at the edges of a fitted band (PolyMAX practice: fit a band wider than
-    the one reported). On the z-domain basis the lines from the first above DC to Nyquist
-    constrain the whole unit circle (its lower half is the conjugate), so no edge is left
-    inside the reported band ``frf.f_min``-``f_max`` and no margin has to be chosen; the
-    lines above the anti-aliasing pass band are incoherent and weigh little
-    (:func:`_lscf_weights`). H1 and the reference estimate divide the decimation filter
-    out (it acts on input and output alike). DC is left out: the operating point is
-    removed, so the estimate there is noise over noise.
-    """
-    resolution = 1.0 / float(s["nonparametric"]["segment"])
-    whole = {**s, "frf": {**s["frf"], "f_min": 0.5 * resolution, "f_max": 0.5 * fs}}
-    return nonparametric_reference(u, y, fs, whole, r)
-
-
-def _lscf_weights(ref: Reference) -> np.ndarray:
-    # each line of each output weighted by the inverse standard deviation of the estimate
-    # (from its 95 % magnitude bounds, averaged over the inputs): the noisy, incoherent
-    # lines count little, and outputs in different units count alike
-    sd = np.nanmean(ref.upper - ref.lower, axis=2) / (2 * 1.96)
-    return np.where(np.isfinite(sd) & (sd > 0), 1.0 / np.where(sd > 0, sd, 1.0), 0.0)
 
 
 def record_modes(cfg: Mapping[str, Any], record: xr.Dataset,
@@ -178,7 +114,7 @@ def record_modes(cfg: Mapping[str, Any], record: xr.Dataset,
                             s["lowpass"])
     for p in s["pairings"]:  # every signal is there before the first (long) diagram
         rec(list(p["inputs"]) + list(p["outputs"]) + list(p.get("reference", [])), "raw")
-    results, refs, data = [], [], []
+    results, own, refs, data = [], [], [], []
     angle = reference_angle(record, rec.times(), speeds) if speed else None  # of the lines
     for p in s["pairings"]:
         u, y = rec(p["inputs"], "raw"), rec(p["outputs"], "raw")
@@ -187,13 +123,13 @@ def record_modes(cfg: Mapping[str, Any], record: xr.Dataset,
         data.append(PairingData(y, list(p["outputs"]), fs_id, refs[-1].frequency,
                                 refs[-1].coherence.reshape(refs[-1].frequency.size, -1)
                                 .max(axis=1), angle))
-        results.append(_diagrams(u, y, _whole_band(u, y, fs_id, s, r), 1.0 / fs_id, s))
+        own.append(diagrams(u, y, r, fs_id, s, p["name"]))
+        results.append({m: d if isinstance(d, str) else d.joined for m, d in own[-1].items()})
         for method, res in results[-1].items():
             if isinstance(res, str):
                 log.warning("%s %s: %s", p["name"], method, res)
             else:
-                log.info("%s %s: %d clusters, order %d", p["name"], method,
-                         len(res.clusters), res.order)
+                log.info("%s %s: %d clusters", p["name"], method, len(res.clusters))
     kept = _in_band(s, results)
     clusters = [Cluster(j, m.frequency_hz, m.damping) for (_, j), ms in kept.items()
                 for _, m in ms]
@@ -202,8 +138,8 @@ def record_modes(cfg: Mapping[str, Any], record: xr.Dataset,
         float(s["nonparametric"]["coherence_min"]), st["shaft_harmonics"],
         s["frf"]["f_max"], int(cfg.get("seed", 0)),
         {} if speed else _turning_shafts(record, 1.0 / resolution))
-    return _dataset(s, [p["name"] for p in s["pairings"]], results, refs, bands, record,
-                    kept, evidence)
+    return _dataset(s, [p["name"] for p in s["pairings"]], results, own, refs, bands,
+                    record, kept, evidence)
 
 
 def _turning_shafts(record: xr.Dataset, segment: float) -> dict[str, tuple[float, float]]:
@@ -245,7 +181,8 @@ def _indicator_db(ref: Reference) -> np.ndarray:
 
 
 def _dataset(s: Mapping[str, Any], names: list[str], results: list[dict[str, Any]],
-             refs: list[Reference], bands: HarmonicBands, record: xr.Dataset,
+             own: list[dict[str, Diagram | str]], refs: list[Reference], bands: HarmonicBands,
+             record: xr.Dataset,
              kept: Mapping[tuple[str, int], list[tuple[int, Any]]],
              evidence: Sequence[Evidence]) -> xr.Dataset:
     methods = list(results[0])
@@ -254,13 +191,15 @@ def _dataset(s: Mapping[str, Any], names: list[str], results: list[dict[str, Any
     n_cl = max([len(k) for k in kept.values()] + [1])
     n_ord = max(len(order_range(s["stabilization"][k], st))
                 for k, st in (("orders", s["stabilization"]["step"]), ("lscf_orders", 1)))
-    n_pole = max([len(p[0]) for res in results for r in res.values() if not isinstance(r, str)
-                  for p in r.poles] + [1])
+    n_pole = max([len(p[0]) for res in own for d in res.values() if not isinstance(d, str)
+                  for r in (d.joined, d.own) for p in r.poles] + [1])
     shape_c, shape_p = (nm, npair, n_cl), (nm, npair, n_ord, n_pole)
-    cl = {k: np.full(shape_c, np.nan) for k in ("f", "z", "fs", "zs", "n", "k", "kl", "c", "o")}
+    cl = {k: np.full(shape_c, np.nan) for k in ("f", "z", "fs", "zs", "n", "k", "kl", "c", "o",
+                                                 "q")}
+    tol = s["stabilization"]["frequency_tolerance"]
     kind = np.full(shape_c, "", dtype=object)
     why = np.full(shape_c, "", dtype=object)
-    pf, pz = np.full(shape_p, np.nan), np.full(shape_p, np.nan)
+    pf, pz, pm = (np.full(shape_p, np.nan) for _ in range(3))
     pstable = np.zeros(shape_p, np.int8)
     pcluster = np.full(shape_p, -1, np.int32)
     order_of = np.full((nm, n_ord), np.nan)
@@ -277,6 +216,10 @@ def _dataset(s: Mapping[str, Any], names: list[str], results: list[dict[str, Any
             cl["k"][i, j, c], cl["kl"][i, j, c] = e.kurtosis, e.kurtosis_limit
             cl["c"][i, j, c], cl["o"][i, j, c] = e.coherence, e.line_order
             kind[i, j, c], why[i, j, c] = e.kind, e.text
+            cl["q"][i, j, c] = q = own[j][method].decimation(m.frequency_hz, tol)
+            if q > 1:
+                why[i, j, c] += (f"; from the diagram of the data decimated {q}x "
+                                 f"({float(s['sample_rate']) / q:g} Hz, zoom)")
         renumber = np.full(len(r.clusters) + 1, -1)  # stab's cluster -> kept; -1 stays
         renumber[[k for k, _ in keep]] = np.arange(len(keep))
         pf[i, j, :len(r.poles)] = _ragged([p[0] for p in r.poles], n_pole)
@@ -284,29 +227,33 @@ def _dataset(s: Mapping[str, Any], names: list[str], results: list[dict[str, Any
         pstable[i, j, :len(r.poles)] = _ragged(r.stable, n_pole, 0)
         pcluster[i, j, :len(r.poles)] = _ragged([renumber[lab] for lab in r.labels],
                                                 n_pole, -1)
-    for j, res in enumerate(results):
-        # the order the identify stage fits: the lowest that holds every mode either
-        # method found in the band and the order lines of its own diagram (the model must
-        # explain the lines it is fitted on); noise poles never count, and lines alone
-        # (no mode) set no order
+    for j, res in enumerate(own):
+        # the order the identify stage fits: the lowest of the diagram at its rate (not
+        # zoomed) that holds every mode either method found in the band and the order
+        # lines of that diagram (the model must explain the lines it is fitted on; a
+        # zoomed band's line clusters sit elsewhere on a sweeping line than its poles);
+        # noise poles never count, and lines alone (no mode) set no order
         modes = cl["f"][:, j][kind[:, j] == "mode"]
-        tol = s["stabilization"]["frequency_tolerance"]
         for i, method in enumerate(methods):
-            r = res[method]
-            if isinstance(r, str):
-                status[i, j] = r
+            if isinstance(res[method], str):
+                status[i, j] = res[method]
                 continue
+            r = res[method].own
             order_of[i, :len(r.orders)] = r.orders
-            wanted = np.concatenate([modes, cl["f"][i, j][kind[i, j] == "harmonic"]])
+            pm[i, j, :len(r.poles)] = _ragged([p[0] for p in r.poles], n_pole)
+            wanted = np.concatenate([modes, cl["f"][i, j][(kind[i, j] == "harmonic")
+                                                          & (cl["q"][i, j] == 1)]])
             held = held_modes(r.poles, wanted, tol)
             model_order[i, j] = modes.size and lowest_order(r.orders, r.poles, wanted[held], tol)
-            missing = modes[~held[:modes.size]]
+            missing = np.unique(np.round(modes[~held[:modes.size]], 1))
             if not modes.size:
                 status[i, j] = (f"no mode: no cluster of stable poles in {f_lo:g}-{f_hi:g} Hz "
                                 "that is a mode (table evidence)")
             elif missing.size:
-                status[i, j] = (f"poor: no order up to {int(r.orders[-1])} holds the mode(s) "
-                                f"at {np.round(missing, 1).tolist()} Hz of the other method")
+                status[i, j] = (f"poor: no order up to {int(r.orders[-1])} at "
+                                f"{float(s['sample_rate']):g} Hz holds the mode(s) at "
+                                f"{missing.tolist()} Hz (of the other method "
+                                "or of a zoomed band)")
     dims_c, dims_p = ("method", "pairing", "cluster"), ("method", "pairing", "order_index",
                                                         "pole")
     f = refs[0].frequency
@@ -342,11 +289,19 @@ def _dataset(s: Mapping[str, Any], names: list[str], results: list[dict[str, Any
                                              "in the cluster's band"}),
         "mode_line_order": (dims_c, cl["o"], {"units": one, "long_name": "order of the "
                                               "line the cluster lies on (NaN: none)"}),
+        "mode_decimation": (dims_c, cl["q"], {"units": one, "long_name": "decimation of "
+                                              "the diagram the cluster was read from, "
+                                              "relative to the identification rate (1: "
+                                              "its own; zoom)"}),
         "order": (("method", "order_index"), order_of,
                   {"units": one, "long_name": "model order of the diagram row (state "
                    "dimension; LSCF: polynomial order)"}),
         "pole_frequency": (dims_p, pf, {"units": "Hz", "long_name":
                                         "natural frequency of each pole per order"}),
+        "model_pole_frequency": (dims_p, pm, {"units": "Hz", "long_name":
+                                              "natural frequency of each pole per order "
+                                              "of the diagram at the identification rate "
+                                              "(not zoomed): the model order's"}),
         "pole_damping": (dims_p, pz, {"units": one, "long_name":
                                       "damping ratio of each pole per order"}),
         "pole_stable": (dims_p, pstable, {"units": one, "long_name":
@@ -376,6 +331,9 @@ def _dataset(s: Mapping[str, Any], names: list[str], results: list[dict[str, Any
              "shaft_frequency_high_hz": bands.shaft_hz[1],
              "speed_source": bands.source or "none",
              "resolution_hz": 1.0 / float(s["nonparametric"]["segment"]),
+             # where the diagram's zoomed bands meet [Hz] (zoom_bands; empty: one band)
+             "zoom_edges_hz": np.array([b[2] for b in zoom_bands(s, float(s["sample_rate"]))
+                                        [1:]]),
              "coherence_min": float(s["nonparametric"]["coherence_min"])}
     return xr.Dataset(data, coords, attrs)
 

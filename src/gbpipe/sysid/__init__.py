@@ -22,7 +22,8 @@ Modules, one concept each (``docs/architecture.md``, "Package map"):
 * :mod:`.bd_regressors`: the simulated regressors of the ``B, D`` least squares;
 * :mod:`.uncertainty`: jackknife confidence bounds of an identified FRF (:func:`frf_bounds`);
 * :mod:`.stabilization`: stabilization diagram over many orders, modes without a model
-  order (:func:`stabilization_diagram`); :mod:`.lscf`: the same from an FRF by
+  order (:func:`stabilization_diagram`); :mod:`.join_diagrams`: several diagrams read as one
+  (:func:`join_poles`, zoom); :mod:`.lscf`: the same from an FRF by
   poly-reference LSCF (:func:`lscf_stabilization`).
 
 Every method accepts several records (experiments) as lists, ``u = [u_0, u_1]``,
@@ -34,6 +35,7 @@ two records.
 """
 
 from gbpipe.sysid.excitation import InputRank, input_hankel_rank
+from gbpipe.sysid.join_diagrams import join_poles, select_poles
 from gbpipe.sysid.lscf import lscf_stabilization
 from gbpipe.sysid.method_moesp import moesp
 from gbpipe.sysid.method_n4sid import n4sid
@@ -51,6 +53,7 @@ from gbpipe.sysid.stabilization import (
     held_modes,
     lowest_order,
     stabilization_diagram,
+    stabilize,
 )
 from gbpipe.sysid.subspace_model import SubspaceModel
 from gbpipe.sysid.uncertainty import FRFBounds, frf_bounds
@@ -58,4 +61,5 @@ from gbpipe.sysid.uncertainty import FRFBounds, frf_bounds
 __all__ = ["pbsid", "moesp", "n4sid", "SubspaceModel", "InputRank", "input_hankel_rank",
            "welch_frf", "NonparametricFRF", "coherent_band", "CoherentBand",
            "equivalent_averages", "frf_bounds", "FRFBounds", "stabilization_diagram",
-           "Stabilization", "Mode", "lscf_stabilization", "lowest_order", "held_modes"]
+           "Stabilization", "Mode", "lscf_stabilization", "lowest_order", "held_modes",
+           "join_poles", "select_poles", "stabilize"]
