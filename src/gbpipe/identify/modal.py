@@ -315,6 +315,10 @@ def _dataset(s: Mapping[str, Any], names: list[str], results: list[dict[str, Any
         "coherence": (("pairing", "frequency"),
                       np.array([r.coherence.reshape(f.size, -1).min(axis=1) for r in refs]),
                       {"units": one, "long_name": "lowest coherence over the FRF elements"}),
+        "zoom_edge": (("zoom_edge",), [b[2] for b in zoom_bands(s, float(s["sample_rate"]))[1:]],
+                      {"units": "Hz", "long_name": "frequency below which the diagram's poles "
+                       "come from the data decimated further (zoom), but near the "
+                       "identification rate's own clusters"}),
         "harmonic_order": (("band",), bands.order, {"units": one, "long_name":
                                                     "order of the reference shaft"}),
         "harmonic_low": (("band",), bands.low_hz, {"units": "Hz", "long_name":
@@ -331,9 +335,6 @@ def _dataset(s: Mapping[str, Any], names: list[str], results: list[dict[str, Any
              "shaft_frequency_high_hz": bands.shaft_hz[1],
              "speed_source": bands.source or "none",
              "resolution_hz": 1.0 / float(s["nonparametric"]["segment"]),
-             # where the diagram's zoomed bands meet [Hz] (zoom_bands; empty: one band)
-             "zoom_edges_hz": np.array([b[2] for b in zoom_bands(s, float(s["sample_rate"]))
-                                        [1:]]),
              "coherence_min": float(s["nonparametric"]["coherence_min"])}
     return xr.Dataset(data, coords, attrs)
 
