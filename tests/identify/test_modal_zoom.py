@@ -14,7 +14,10 @@ import pytest
 import xarray as xr
 from scipy import signal
 
+from gbpipe import io
 from gbpipe.config import load, merge
+from gbpipe.figures import stabilization_plots
+from gbpipe.figures.stabilization_plots import stabilization_figure
 from gbpipe.identify import record_modes
 from gbpipe.identify.modal_diagrams import zoom_bands
 from gbpipe.sysid import join_poles, select_poles
@@ -118,3 +121,27 @@ def test_joined_poles_are_each_diagrams_kept_poles_in_order():
             src = parts[0][k] if fk >= 50 else parts[1][k]
             i = int(np.flatnonzero(src[0] == fk)[0])
             assert zk == src[1][i] and np.array_equal(vk, src[2][i])
+
+
+def test_the_figure_dots_the_bands_edges_on_a_frequency_axis(tmp_path, monkeypatch):
+    """Through the file the workflow writes and reads: the zoomed bands' edges are dotted
+    at their frequencies on a numeric frequency axis, and the caption lists each cluster."""
+    ds = record_modes(_cfg(), _record(0))
+    io.write(ds, tmp_path / "three.nc", stage="modes_measured")
+    back = io.read(tmp_path / "three.nc")
+    edges = back.zoom_edge.values
+    assert edges.dtype.kind == "f" and edges.size >= 1
+    np.testing.assert_allclose(edges, [b[2] for b in zoom_bands(_cfg()["identify"], FS)[1:]])
+    drawn = []
+    monkeypatch.setattr(stabilization_plots, "save", lambda fig, path: drawn.append(fig))
+    numbers = stabilization_figure(back, "T_w", "three", {"png": tmp_path / "f.png",
+                                                          "caption": tmp_path / "f.md"})
+    for ax in drawn[0].axes[:back.method.size]:  # each method's axes (then the twins)
+        assert ax.get_xlim() == (back.frequency.values[0], back.frequency.values[-1])
+        dotted = sorted(line.get_xdata()[0] for line in ax.lines
+                        if line.get_linestyle() == ":")
+        np.testing.assert_allclose(dotted, np.sort(edges))
+    for method in back.method.values:
+        d = _rows(back, method)
+        for f in d.mode_frequency.values:
+            assert f"{f:.1f} Hz" in numbers[f"{method} clusters"]
