@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import fcntl
 import os
+import subprocess
 import tempfile
 import threading
 from collections.abc import Callable, Iterator
@@ -29,6 +30,12 @@ import pytest
 
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 os.environ.setdefault("MPLBACKEND", "Agg")
+# The local SLURM starts in a thread of its own (tests/cluster/conftest.py) and spawns its
+# daemons while the other threads work. CPython spawns with vfork on Linux, whose child
+# shares the parent's memory until its exec: once (29 November) the exec of `slurmd -C`
+# failed with EFAULT ("Bad address") there. fork gives the child its own copy.
+if hasattr(subprocess, "_USE_VFORK"):
+    subprocess._USE_VFORK = False
 
 ROOT = Path(__file__).resolve().parents[1]
 CONFIG = ROOT / "config" / "config.yaml"
