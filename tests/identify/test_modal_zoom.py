@@ -129,7 +129,7 @@ def test_the_figure_dots_the_bands_edges_on_a_frequency_axis(tmp_path, monkeypat
     ds = record_modes(_cfg(), _record(0))
     io.write(ds, tmp_path / "three.nc", stage="modes_measured")
     back = io.read(tmp_path / "three.nc")
-    edges = back.zoom_edge.values
+    edges = back.zoom_edge_frequency.values
     assert edges.dtype.kind == "f" and edges.size >= 1
     np.testing.assert_allclose(edges, [b[2] for b in zoom_bands(_cfg()["identify"], FS)[1:]])
     drawn = []

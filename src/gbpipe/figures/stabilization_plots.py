@@ -59,7 +59,7 @@ def stabilization_figure(ds: xr.Dataset, pairing: str, record: str,
             ax.axvspan(lo, hi, color="0.85", lw=0, zorder=0)
             ax.text(0.5 * (lo + hi), 0.02 * top, f"{k:.4g}x", rotation=90, fontsize=5,
                     ha="center", va="bottom", color="0.35")
-        for edge in ds.zoom_edge.values:
+        for edge in ds.zoom_edge_frequency.values:
             # below each edge the poles come from the data decimated further (zoom)
             ax.axvline(edge, color="0.4", ls=":", lw=0.8, zorder=0)
         order = m.order.values[:, None] * np.ones(m.pole_frequency.shape[-1])

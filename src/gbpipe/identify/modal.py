@@ -315,10 +315,11 @@ def _dataset(s: Mapping[str, Any], names: list[str], results: list[dict[str, Any
         "coherence": (("pairing", "frequency"),
                       np.array([r.coherence.reshape(f.size, -1).min(axis=1) for r in refs]),
                       {"units": one, "long_name": "lowest coherence over the FRF elements"}),
-        "zoom_edge": (("zoom_edge",), [b[2] for b in zoom_bands(s, float(s["sample_rate"]))[1:]],
-                      {"units": "Hz", "long_name": "frequency below which the diagram's poles "
-                       "come from the data decimated further (zoom), but near the "
-                       "identification rate's own clusters"}),
+        "zoom_edge_frequency": (
+            ("zoom_edge",), [b[2] for b in zoom_bands(s, float(s["sample_rate"]))[1:]],
+            {"units": "Hz", "long_name": "frequency below which the diagram's poles come "
+             "from the data decimated further (zoom), but near the identification rate's "
+             "own clusters"}),
         "harmonic_order": (("band",), bands.order, {"units": one, "long_name":
                                                     "order of the reference shaft"}),
         "harmonic_low": (("band",), bands.low_hz, {"units": "Hz", "long_name":
