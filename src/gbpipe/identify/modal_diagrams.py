@@ -1,6 +1,6 @@
 """The stabilization diagrams of one pairing of a bench record, zoomed.
 
-Two diagrams (:func:`_diagrams`): the subspace one (``identify.stabilization.method``) on
+Two diagrams (:func:`diagrams`): the subspace one (``identify.stabilization.method``) on
 the conditioned data and an LSCF one on their nonparametric FRF (every Welch line but DC,
 up to Nyquist: :func:`_whole_band`). Both are fitted again on the data decimated further
 (:func:`zoom_bands`) and each is read as one diagram joined over those bands
@@ -70,11 +70,30 @@ def zoom_bands(s: Mapping[str, Any], fs: float) -> list[tuple[int, float, float]
 
 
 def diagrams(u: np.ndarray, y: np.ndarray, r: np.ndarray | None, fs: float,
-              s: Mapping[str, Any], name: str) -> dict[str, Diagram | str]:
-    """Both diagrams of one pairing, each joined over the zoom bands (:func:`zoom_bands`),
-    with the diagram of the identification rate alone (the identify stage's model: its
-    order). A failure is kept as its reason (status), not raised; a zoomed band that
-    fails (a record too short for its windows) is left out, with the bands below it."""
+             s: Mapping[str, Any], name: str) -> dict[str, Diagram | str]:
+    """Both diagrams of one pairing, each joined over the zoom bands (:func:`zoom_bands`).
+
+    Parameters
+    ----------
+    u, y : ndarray, shape (n, inputs) and (n, outputs)
+        The pairing's conditioned inputs and outputs at ``fs``.
+    r : ndarray or None
+        Its conditioned reference (set-point) signals, or None.
+    fs : float
+        Identification rate [Hz].
+    s : mapping
+        The validated ``identify`` section.
+    name : str
+        Pairing name (log lines).
+
+    Returns
+    -------
+    dict
+        Per method (the subspace method, ``lscf``): a :class:`Diagram`, or the reason
+        its diagram at the identification rate failed (status), not raised. A zoomed band
+        that fails (a record too short for its windows) is left out with the bands below
+        it, and the log says so.
+    """
     st = s["stabilization"]
     crit = {k: st[k] for k in ("frequency_tolerance", "damping_tolerance", "mac_min")}
     orders = order_range(st["orders"], st["step"])
