@@ -158,8 +158,8 @@ class Diagram:
     def decimation(self, frequency_hz: float, tol: float) -> int:
         """Decimation of the diagram a cluster of the joined one at ``frequency_hz`` was
         read from (as :func:`_believed` kept its poles)."""
-        if any(abs(frequency_hz - m.frequency_hz) <= _NEAR * tol * m.frequency_hz
-               for m in self.own.clusters):
+        own = np.array([m.frequency_hz for m in self.own.clusters])
+        if _near(np.array([frequency_hz]), own, _NEAR * tol)[0]:
             return 1
         return next(q for q, low, high in self.bands if low <= frequency_hz < high)
 
@@ -169,11 +169,16 @@ class Diagram:
 _NEAR = 2.0
 
 
+def _near(f: np.ndarray, own: np.ndarray, tol: float) -> np.ndarray:
+    # which frequencies [Hz] lie within the relative tolerance of one of the clusters own
+    return (np.abs(f[:, None] - own[None, :]) <= tol * own[None, :]).any(axis=1)
+
+
 def _believed(f: np.ndarray, band: tuple[float, float], own: np.ndarray, tol: float,
               first: bool) -> np.ndarray:
     # which poles [Hz] of a diagram the joined one keeps: in its band, and (the first,
     # at the identification rate) near its own clusters, which the others leave to it
-    near = (np.abs(f[:, None] - own[None, :]) <= tol * own[None, :]).any(axis=1)
+    near = _near(f, own, tol)
     inside = (f >= band[0]) & (f < band[1])
     return inside | near if first else inside & ~near
 
