@@ -14,15 +14,21 @@ from gbpipe.config import load, merge
 from gbpipe.errors import DataError
 from gbpipe.identify import modes_table_rows, record_modes
 from gbpipe.identify.band_signal import band_envelope, line_share
-from gbpipe.identify.harmonic_lines import HarmonicBands, order_one, speed_frequency_range
+from gbpipe.identify.harmonic_lines import (
+    HarmonicBands,
+    harmonic_bands,
+    order_one,
+    speed_frequency_range,
+)
 from gbpipe.identify.mode_kinds import (
     ALPHA,
+    LINE_SHARE,
     cluster_evidence,
     kurtosis_limit,
     kurtosis_statistic,
-    peak_drift,
     resolvable_damping,
 )
+from gbpipe.identify.peak_drift import peak_drift
 from tests.conftest import CONFIG
 
 FS = 1000.0
@@ -190,6 +196,33 @@ def test_the_widened_drift_band_calls_no_unresolved_mode_a_line():
         ev = cluster_evidence(40.0, 0.005, [y], ["y"], FS, f, np.ones_like(f), 0.5, 0.6,
                               NO_LINES, rng)
         assert ev.kind == "mode", ev.text
+
+
+def test_a_pole_wider_than_the_line_on_it_is_the_mode_the_line_crosses():
+    """A mode scipy simulates (200 Hz, 2.5 %: half-power band 10 Hz) under order 10 of a
+    20 Hz shaft whose speed ripples 0.1 % (the line's band: 10 x 0.04 Hz plus one
+    frequency line each side, 1.4 Hz), the line 3 times the mode's rms: the band's power
+    and PDF are the line's. The mode's pole (the truth) is the mode the line crosses; a
+    pole as narrow as the line's band is the line."""
+    rng = np.random.default_rng(21)
+    n = int(40 * FS)
+    t = np.arange(n) / FS
+    shaft = 20.0 * (1 + 0.001 * np.sin(2 * np.pi * 0.05 * t))
+    angle = 2 * np.pi * np.cumsum(shaft) / FS
+    r = _sdof(200.0, 0.025, n, rng)
+    x = r / r.std() + 3.0 * np.cos(10 * angle)
+    bands = harmonic_bands((shaft.min(), shaft.max()), [10.0], 0.5, 0)
+    width = float(bands.high_hz[0] - bands.low_hz[0])
+    assert width == pytest.approx(1.4, abs=0.01)
+    f = np.linspace(0, 500, 1001)
+    coh = np.ones_like(f)
+    ev = cluster_evidence(200.0, 0.025, [x], ["y"], FS, f, coh, 0.5, 0.6, bands, rng, angle)
+    assert ev.kind == "mode" and "crosses" in ev.text, ev.text
+    share = float(re.search(r"has ([0-9.]+) times the power", ev.text).group(1))
+    assert share > LINE_SHARE and ev.kurtosis < ev.kurtosis_limit  # the line's band
+    ev = cluster_evidence(200.0, 0.9 * width / (2 * 200.0), [x], ["y"], FS, f, coh, 0.5,
+                          0.6, bands, rng, angle)
+    assert ev.kind == "harmonic" and ev.text.startswith("order 10"), ev.text
 
 
 def test_damping_below_the_records_resolution_is_a_line():

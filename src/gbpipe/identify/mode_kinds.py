@@ -26,18 +26,17 @@ A stable cluster of a stabilization diagram is one of three things:
       frequency and damping, driven by white noise, seen through the same band filter
       over the same duration": the sampling spread for the band's number of independent
       samples, drawn by Monte Carlo on the band's own correlation, not a tuned number;
-    * the **drift**: a line follows its shaft's speed, so the peak near the cluster moves
-      with time along a monotonic track (a run-up, a slow drift: the line sweeps
-      through the band and its PDF there is bursty, not a sinusoid's); a mode's peak
-      jitters at random. Spearman's rank correlation of the peak frequency of each
-      Welch segment with time (:func:`peak_drift`), p below ``ALPHA``, on a track that
-      passes the cluster's frequency. The track is searched in the cluster's band, at
-      least ``3 / segment`` wide on each side: a pole the segment's spectrum does not
-      resolve (``2 zeta f`` below ``1 / segment``, as a line's) is located within one
-      frequency line, and the Hann window spreads a line over its main lobe, ``2 /
-      segment`` on each side. The fit puts a swept line's pole anywhere on its sweep:
-      within the pole's own band the line is seen only part of the record (its peak then
-      sits at the band's edge, a flat track). Any stationary response (modes, noise)
+    * the **drift**: a line follows its shaft's speed, so the peak near the cluster moves with time
+      along a monotonic track (a run-up, a slow drift: the line sweeps through the band and its PDF
+      there is bursty, not a sinusoid's); a mode's peak jitters at random. Spearman's rank
+      correlation of the peak frequency of each Welch segment with time
+      (:func:`gbpipe.identify.peak_drift.peak_drift`), p below ``ALPHA``, on a track that passes the
+      cluster's frequency. The track is searched in the cluster's band, at least ``3 / segment``
+      wide on each side: a pole the segment's spectrum does not resolve (``2 zeta f`` below ``1 /
+      segment``, as a line's) is located within one frequency line, and the Hann window spreads a
+      line over its main lobe, ``2 / segment`` on each side. The fit puts a swept line's pole
+      anywhere on its sweep: within the pole's own band the line is seen only part of the record
+      (its peak then sits at the band's edge, a flat track). Any stationary response (modes, noise)
       still has no trend in the wider band;
     * the **damping**: a half-power bandwidth ``2 ζ f`` narrower than the record's
       frequency resolution ``1 / T`` (a decay longer than the record) cannot be told from
@@ -59,14 +58,15 @@ from collections.abc import Mapping, Sequence
 from typing import NamedTuple
 
 import numpy as np
-from scipy import signal, stats
+from scipy import stats
 
 from gbpipe.identify.band_signal import FILTER_ORDER, band_envelope, line_share
 from gbpipe.identify.harmonic_lines import HarmonicBands, order_one
+from gbpipe.identify.peak_drift import peak_drift
 
 __all__ = ["KINDS", "ALPHA", "Evidence", "kurtosis_statistic",
-           "kurtosis_limit", "Drift", "peak_drift", "resolvable_damping", "cluster_evidence",
-           "on_line", "LINE_SHARE", "Cluster", "PairingData", "record_evidence"]
+           "kurtosis_limit", "resolvable_damping", "cluster_evidence",
+           "on_line", "line_width", "LINE_SHARE", "Cluster", "PairingData", "record_evidence"]
 
 #: The kinds of a cluster.
 KINDS = ("mode", "harmonic", "spurious")
@@ -148,53 +148,6 @@ def kurtosis_limit(f0: float, damping: float, half_width: float, fs_z: float, n:
     return float(np.exp(lg.mean() - stats.norm.isf(alpha) * lg.std(ddof=1)))
 
 
-class Drift(NamedTuple):
-    """The peak track of one output near a cluster (:func:`peak_drift`).
-
-    Attributes
-    ----------
-    rho : float
-        Rank correlation of peak frequency and time [1] (NaN: a constant track).
-    p : float
-        Its two-sided p-value [1] (1 for a constant track).
-    n : int
-        Segments [1].
-    low_hz, high_hz : float
-        Lowest and highest peak of the track [Hz] (NaN: no track).
-    """
-
-    rho: float
-    p: float
-    n: int
-    low_hz: float
-    high_hz: float
-
-
-def peak_drift(x: np.ndarray, fs: float, f0: float, half_width: float, segment: float
-               ) -> Drift:
-    """Does the spectral peak in ``f0 ± half_width`` drift with time, as a shaft's line does?
-
-    The peak frequency of each non-overlapping Hann segment of ``segment`` [s] (4x
-    zero-padded) within the band, against time: Spearman's rank correlation and its
-    two-sided p-value (:func:`scipy.stats.spearmanr`). A line follows its shaft's speed,
-    which drifts smoothly: a monotonic track; a mode's peak jitters at random about its
-    frequency (no trend under the hypothesis of a mode: p uniform). The track's range
-    tells whether it passes ``f0`` [Hz] (a track that leaves ``f0`` out follows a peak
-    beside the pole, a line or another mode, not the pole's: :func:`cluster_evidence`).
-    """
-    n = int(round(segment * fs))
-    f, _, pxx = signal.spectrogram(x - x.mean(), fs, nperseg=n, noverlap=0, nfft=4 * n)
-    band = np.abs(f - f0) <= half_width
-    if pxx.shape[1] < 4 or band.sum() < 2:
-        return Drift(np.nan, 1.0, pxx.shape[1], np.nan, np.nan)
-    track = f[band][np.argmax(pxx[band], axis=0)]
-    low, high = float(track.min()), float(track.max())
-    if np.ptp(track) == 0:
-        return Drift(np.nan, 1.0, track.size, low, high)
-    res = stats.spearmanr(np.arange(track.size), track)
-    return Drift(float(res.statistic), float(res.pvalue), track.size, low, high)
-
-
 def resolvable_damping(frequency_hz: float, duration_s: float) -> float:
     """Smallest damping ratio a record of ``duration_s`` [s] resolves at ``frequency_hz``
     [Hz]: half-power bandwidth ``2 ζ f`` equal to the resolution ``1 / T`` [1]."""
@@ -205,6 +158,15 @@ def on_line(frequency_hz: float, bands: HarmonicBands) -> float:
     """Order of the band ``frequency_hz`` [Hz] lies in (the lowest), NaN for none."""
     inside = (bands.low_hz <= frequency_hz) & (frequency_hz <= bands.high_hz)
     return float(bands.order[inside][0]) if inside.any() else np.nan
+
+
+def line_width(frequency_hz: float, bands: HarmonicBands) -> float:
+    """Width of the widest band ``frequency_hz`` [Hz] lies in [Hz], NaN for none: the
+    widest peak an order line there can have (its order times the shaft's speed range,
+    one frequency line on each side)."""
+    inside = (bands.low_hz <= frequency_hz) & (frequency_hz <= bands.high_hz)
+    return float(np.max(bands.high_hz[inside] - bands.low_hz[inside])) if inside.any() \
+        else np.nan
 
 
 def cluster_evidence(frequency_hz: float, damping: float, outputs: Sequence[np.ndarray],
@@ -307,8 +269,19 @@ def cluster_evidence(frequency_hz: float, damping: float, outputs: Sequence[np.n
         else:  # held, as without an angle
             facts.insert(0, f"{named} not measured (under two segments with an angle)")
     held = not bound < LINE_SHARE  # NaN (no angle): the line is taken to hold its band
-    if np.isfinite(order) and (held or sinusoid or drifts or zeta < zeta_res
-                               or coh < coherence_min):
+    # a pole wider than any peak the line can make is a mode's; the line's PDF, drift and
+    # share are the line's, not the pole's (the line's own pole is another, narrow). Only
+    # a measured speed bounds the line's width: the record's own line has no speed range
+    width = line_width(f, bands)
+    crossing = angle is not None and bool(2.0 * zeta * f > width)  # NaN: on no line
+    if crossing:
+        facts.insert(0, f"half-power band 2 zeta f = {2 * zeta * f:.2f} Hz, wider than the "
+                        f"{width:.2f} Hz band of the line(s) on it")
+    if crossing and zeta >= zeta_res and coh >= coherence_min:
+        kind, why = "mode", (f"a mode that order {order:.4g} of {bands.source} crosses: its "
+                             "pole is wider than any peak of the line")
+    elif np.isfinite(order) and (held or sinusoid or drifts or zeta < zeta_res
+                                 or coh < coherence_min):
         kind, why = "harmonic", f"order {order:.4g} of {bands.source}"
     elif zeta < zeta_res:
         kind, why = "harmonic", (f"damping {zeta:.5f} below the record's resolution "
@@ -377,11 +350,14 @@ def record_evidence(clusters: Sequence[Cluster], data: Sequence[PairingData],
         candidates for order 1 (:func:`order_one`).
     """
     rng = np.random.default_rng(seed)
-    ev = [cluster_evidence(c.frequency_hz, c.damping, list(data[c.pairing].y.T),
-                           data[c.pairing].names, data[c.pairing].fs,
-                           data[c.pairing].frequency, data[c.pairing].coherence,
-                           resolution_hz, coherence_min, bands, rng,
-                           data[c.pairing].angle) for c in clusters]
+
+    def judge(c: Cluster, lines: HarmonicBands) -> Evidence:
+        d = data[c.pairing]
+        return cluster_evidence(c.frequency_hz, c.damping, list(d.y.T), d.names, d.fs,
+                                d.frequency, d.coherence, resolution_hz, coherence_min,
+                                lines, rng, d.angle)
+
+    ev = [judge(c, bands) for c in clusters]
     if bands.source:
         return ev, bands
     lines = np.array([c.frequency_hz for c, e in zip(clusters, ev, strict=True)
