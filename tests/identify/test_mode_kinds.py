@@ -201,9 +201,11 @@ def test_the_widened_drift_band_calls_no_unresolved_mode_a_line():
 def test_a_pole_wider_than_the_line_on_it_is_the_mode_the_line_crosses():
     """A mode scipy simulates (200 Hz, 2.5 %: half-power band 10 Hz) under order 10 of a
     20 Hz shaft whose speed ripples 0.1 % (the line's band: 10 x 0.04 Hz plus one
-    frequency line each side, 1.4 Hz), the line 3 times the mode's rms: the band's power
-    and PDF are the line's. The mode's pole (the truth) is the mode the line crosses; a
-    pole as narrow as the line's band is the line."""
+    frequency line each side, 1.4 Hz), the line's amplitude 3 times the mode's rms: the
+    band's power and PDF are the line's. The mode's pole (the truth) is the mode the line
+    crosses; a pole as narrow as the line's band is the line; so is the wide pole where
+    the speed is not measured (no angle: the band's width is then not the line's) or
+    where the band is not coherent."""
     rng = np.random.default_rng(21)
     n = int(40 * FS)
     t = np.arange(n) / FS
@@ -216,13 +218,19 @@ def test_a_pole_wider_than_the_line_on_it_is_the_mode_the_line_crosses():
     assert width == pytest.approx(1.4, abs=0.01)
     f = np.linspace(0, 500, 1001)
     coh = np.ones_like(f)
-    ev = cluster_evidence(200.0, 0.025, [x], ["y"], FS, f, coh, 0.5, 0.6, bands, rng, angle)
-    assert ev.kind == "mode" and "crosses" in ev.text, ev.text
+
+    def kind(zeta, coherence=coh, phase=angle):
+        return cluster_evidence(200.0, zeta, [x], ["y"], FS, f, coherence, 0.5, 0.6, bands,
+                                rng, phase)
+
+    ev = kind(0.025)
+    assert ev.kind == "mode" and "wider than any peak" in ev.text, ev.text
     share = float(re.search(r"has ([0-9.]+) times the power", ev.text).group(1))
     assert share > LINE_SHARE and ev.kurtosis < ev.kurtosis_limit  # the line's band
-    ev = cluster_evidence(200.0, 0.9 * width / (2 * 200.0), [x], ["y"], FS, f, coh, 0.5,
-                          0.6, bands, rng, angle)
+    ev = kind(0.9 * width / (2 * 200.0))
     assert ev.kind == "harmonic" and ev.text.startswith("order 10"), ev.text
+    assert kind(0.025, phase=None).kind == "harmonic"
+    assert kind(0.025, coherence=np.full_like(f, 0.3)).kind == "harmonic"
 
 
 def test_damping_below_the_records_resolution_is_a_line():

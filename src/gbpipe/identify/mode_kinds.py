@@ -14,7 +14,10 @@ A stable cluster of a stabilization diagram is one of three things:
       reaches ``LINE_SHARE``, or one of the tests below calls it a line, or its band is
       not coherent. Otherwise it is the mode the line crosses (a line explains a band it
       dominates; a mode's random response that holds most of the band is the mode's,
-      whatever line passes);
+      whatever line passes). A coherent cluster whose half-power band ``2 zeta f`` is
+      wider than the whole band of the measured line on it (:func:`line_width`) is the
+      mode the line crosses whatever these tests say: they see the line, and no line
+      makes a peak that wide;
     * the **PDF** of the response in the cluster's band (Brincker, Andersen & Møller,
       "Identification of harmonics in operational modal analysis", IMAC 2000; Jacobs et
       al., "Harmonic detection in OMA", ISMA 2008): the band-passed response of a mode
@@ -26,18 +29,19 @@ A stable cluster of a stabilization diagram is one of three things:
       frequency and damping, driven by white noise, seen through the same band filter
       over the same duration": the sampling spread for the band's number of independent
       samples, drawn by Monte Carlo on the band's own correlation, not a tuned number;
-    * the **drift**: a line follows its shaft's speed, so the peak near the cluster moves with time
-      along a monotonic track (a run-up, a slow drift: the line sweeps through the band and its PDF
-      there is bursty, not a sinusoid's); a mode's peak jitters at random. Spearman's rank
-      correlation of the peak frequency of each Welch segment with time
-      (:func:`gbpipe.identify.peak_drift.peak_drift`), p below ``ALPHA``, on a track that passes the
-      cluster's frequency. The track is searched in the cluster's band, at least ``3 / segment``
-      wide on each side: a pole the segment's spectrum does not resolve (``2 zeta f`` below ``1 /
-      segment``, as a line's) is located within one frequency line, and the Hann window spreads a
-      line over its main lobe, ``2 / segment`` on each side. The fit puts a swept line's pole
-      anywhere on its sweep: within the pole's own band the line is seen only part of the record
-      (its peak then sits at the band's edge, a flat track). Any stationary response (modes, noise)
-      still has no trend in the wider band;
+    * the **drift**: a line follows its shaft's speed, so the peak near the cluster
+      moves with time along a monotonic track (a run-up, a slow drift: the line sweeps
+      through the band and its PDF there is bursty, not a sinusoid's); a mode's peak
+      jitters at random. Spearman's rank correlation of the peak frequency of each Welch
+      segment with time (:func:`gbpipe.identify.peak_drift.peak_drift`), p below
+      ``ALPHA``, on a track that passes the cluster's frequency. The track is searched
+      in the cluster's band, at least ``3 / segment`` wide on each side: a pole the
+      segment's spectrum does not resolve (``2 zeta f`` below ``1 / segment``, as a
+      line's) is located within one frequency line, and the Hann window spreads a line
+      over its main lobe, ``2 / segment`` on each side. The fit puts a swept line's pole
+      anywhere on its sweep: within the pole's own band the line is seen only part of
+      the record (its peak then sits at the band's edge, a flat track). Any stationary
+      response (modes, noise) still has no trend in the wider band;
     * the **damping**: a half-power bandwidth ``2 ζ f`` narrower than the record's
       frequency resolution ``1 / T`` (a decay longer than the record) cannot be told from
       a line: ``ζ < 1 / (2 f T)``.
@@ -154,9 +158,14 @@ def resolvable_damping(frequency_hz: float, duration_s: float) -> float:
     return 1.0 / (2.0 * frequency_hz * duration_s)
 
 
+def _inside(frequency_hz: float, bands: HarmonicBands) -> np.ndarray:
+    """Mask of the bands ``frequency_hz`` [Hz] lies in."""
+    return (bands.low_hz <= frequency_hz) & (frequency_hz <= bands.high_hz)
+
+
 def on_line(frequency_hz: float, bands: HarmonicBands) -> float:
     """Order of the band ``frequency_hz`` [Hz] lies in (the lowest), NaN for none."""
-    inside = (bands.low_hz <= frequency_hz) & (frequency_hz <= bands.high_hz)
+    inside = _inside(frequency_hz, bands)
     return float(bands.order[inside][0]) if inside.any() else np.nan
 
 
@@ -164,7 +173,7 @@ def line_width(frequency_hz: float, bands: HarmonicBands) -> float:
     """Width of the widest band ``frequency_hz`` [Hz] lies in [Hz], NaN for none: the
     widest peak an order line there can have (its order times the shaft's speed range,
     one frequency line on each side)."""
-    inside = (bands.low_hz <= frequency_hz) & (frequency_hz <= bands.high_hz)
+    inside = _inside(frequency_hz, bands)
     return float(np.max(bands.high_hz[inside] - bands.low_hz[inside])) if inside.any() \
         else np.nan
 
@@ -199,8 +208,9 @@ def cluster_evidence(frequency_hz: float, damping: float, outputs: Sequence[np.n
         The reference shaft's angle at the outputs' samples [rad]
         (:func:`gbpipe.identify.harmonic_lines.reference_angle`): a cluster on an order
         line is then a line only where the line holds its band
-        (:func:`gbpipe.identify.band_signal.line_share`);
-        without it every cluster on a line is one.
+        (:func:`gbpipe.identify.band_signal.line_share`) or its pole is wider than the
+        line's band (:func:`line_width`: the speed range is measured); without it every
+        cluster on a line is one.
     """
     f, zeta = float(frequency_hz), float(damping)
     w = _half_width(f, zeta, resolution_hz)
@@ -255,7 +265,7 @@ def cluster_evidence(frequency_hz: float, damping: float, outputs: Sequence[np.n
     if np.isfinite(order) and angle is not None:
         # every measured line whose band holds the cluster (bands overlap where the speed
         # range is wide or a mesh order meets a shaft harmonic)
-        lines = bands.order[(bands.low_hz <= f) & (f <= bands.high_hz)]
+        lines = bands.order[_inside(f, bands)]
         shares = [line_share(np.asarray(x, float) - np.mean(x), fs, angle, lines,
                              1.0 / resolution_hz, p, stats.norm.isf(alpha))
                   for x, p in zip(outputs, power, strict=True)]
@@ -272,14 +282,16 @@ def cluster_evidence(frequency_hz: float, damping: float, outputs: Sequence[np.n
     # a pole wider than any peak the line can make is a mode's; the line's PDF, drift and
     # share are the line's, not the pole's (the line's own pole is another, narrow). Only
     # a measured speed bounds the line's width: the record's own line has no speed range
+    # (wider than two frequency lines, so also resolved: 2 zeta f > 2 / segment > 1 / T)
     width = line_width(f, bands)
-    crossing = angle is not None and bool(2.0 * zeta * f > width)  # NaN: on no line
+    crossing = (angle is not None and bool(2.0 * zeta * f > width)  # NaN: on no line
+                and coh >= coherence_min)
     if crossing:
+        on = ", ".join(f"{k:.4g}" for k in bands.order[_inside(f, bands)])
         facts.insert(0, f"half-power band 2 zeta f = {2 * zeta * f:.2f} Hz, wider than the "
                         f"{width:.2f} Hz band of the line(s) on it")
-    if crossing and zeta >= zeta_res and coh >= coherence_min:
-        kind, why = "mode", (f"a mode that order {order:.4g} of {bands.source} crosses: its "
-                             "pole is wider than any peak of the line")
+        kind, why = "mode", (f"a mode that order(s) {on} of {bands.source} cross: its pole "
+                             "is wider than any peak of the line")
     elif np.isfinite(order) and (held or sinusoid or drifts or zeta < zeta_res
                                  or coh < coherence_min):
         kind, why = "harmonic", f"order {order:.4g} of {bands.source}"
@@ -351,13 +363,13 @@ def record_evidence(clusters: Sequence[Cluster], data: Sequence[PairingData],
     """
     rng = np.random.default_rng(seed)
 
-    def judge(c: Cluster, lines: HarmonicBands) -> Evidence:
+    def judge(c: Cluster) -> Evidence:
         d = data[c.pairing]
         return cluster_evidence(c.frequency_hz, c.damping, list(d.y.T), d.names, d.fs,
                                 d.frequency, d.coherence, resolution_hz, coherence_min,
-                                lines, rng, d.angle)
+                                bands, rng, d.angle)
 
-    ev = [judge(c, bands) for c in clusters]
+    ev = [judge(c) for c in clusters]
     if bands.source:
         return ev, bands
     lines = np.array([c.frequency_hz for c, e in zip(clusters, ev, strict=True)
