@@ -11,7 +11,8 @@ version (``identify.versions: [raw, tsa]``) and the fit, in its own results fold
 job logs its own peak RSS and CPU time at exit (``results/logs/``), Snakemake its wall
 (``results/benchmarks/``). With ``--removal`` the regression and VKF removals, which the
 measured workflow does not run, are timed by :func:`gbpipe.harmonics.method_residuals` in
-a child process on the record the workflow read (its own ``getrusage``; its log, with
+a child process on the record the workflow read, opened lazily as the stages open it (a
+signal is read when it is removed; its own ``getrusage``; its log, with
 the progress and heartbeat lines, in ``results/logs/removal_<method>.log``).
 
 The example's config includes the ``virtual`` stage (since the merge of branch ``virt``):
@@ -84,7 +85,7 @@ from gbpipe.harmonics import method_params, method_residuals, test_families
 from gbpipe.harmonics.stage import MODE_MIN_FREQUENCY
 from gbpipe.model.assembly import bench_ss
 cfg = load(*sys.argv[5:])
-rec = io.read(sys.argv[1])
+rec = io.read(sys.argv[1], lazy=True)  # a signal is read when removed, not all nine
 names = [n for n in rec.data_vars if "time" in rec[n].dims and n != "tacho"]
 names = names[:int(sys.argv[4])] if int(sys.argv[4]) else names
 fam = test_families(cfg)

@@ -10,6 +10,7 @@ import pytest
 import xarray as xr
 from harmonic_sweeps import HSS_LINES, MESH_LINES
 
+import gbpipe.harmonics.removal as removal
 from gbpipe.harmonics import compare_method, method_params, method_residuals, removal_rows
 
 SPEC = {"signal": "torque_meter_driven_measured", "metric_rpm_bins": 4,
@@ -161,3 +162,30 @@ def test_method_residuals_keep_the_low_part_and_remove_the_lines(sw):
     np.testing.assert_array_equal(both[0].motor_torque_driver.values, r)
     np.testing.assert_array_equal(both[1].motor_torque_driver.values,
                                   alone.motor_torque_driver.values)
+
+
+def test_a_long_records_channels_go_in_groups_each_as_alone(sw, monkeypatch):
+    # a record too long for its channels' three arrays in one call (GROUP_BYTES, here
+    # set to two channels' worth) is removed two channels and then one: every channel's
+    # residual is the one of all channels in one call, to the BLAS order's rounding, and
+    # the result holds the channels in their order with their units
+    rng = np.random.default_rng(11)
+    lines = sw["hss"] + sw["mesh"]
+    channels = {"a": lines, "b": lines + 0.3 * rng.standard_normal(lines.size),
+                "c": -40.0 * lines}
+    attrs = {"sample_rate": sw["fs"], "pulses_per_rev": 1}
+    rec = xr.Dataset({f"{k}_measured": ("time", v, {"units": f"{k} unit"})
+                      for k, v in channels.items()}
+                     | {"pulse_time": ("pulse", sw["pulses"], {"units": "s"})},
+                     coords={"time": ("time", sw["t"], {"units": "s"})}, attrs=attrs)
+    args = (list(channels), "regression", {"knot_spacing": 1.0}, _families(sw), 0.5)
+    whole = method_residuals(rec, *args)
+    monkeypatch.setattr(removal, "GROUP_BYTES", 2 * 3 * 8 * rec.sizes["time"])
+    assert removal.channel_groups("regression", list(channels), rec.sizes["time"]) == [
+        ["a", "b"], ["c"]]
+    grouped = method_residuals(rec, *args)
+    assert list(grouped.data_vars) == ["a", "b", "c"]
+    for k, v in channels.items():
+        assert grouped[k].attrs["units"] == f"{k} unit"
+        np.testing.assert_allclose(grouped[k].values, whole[k].values, rtol=0,
+                                   atol=1e-11 * np.max(np.abs(v)))

@@ -34,7 +34,7 @@ from gbpipe.errors import ConfigError, DataError
 from gbpipe.harmonics.crossings import crossing_lines
 from gbpipe.harmonics.metrics import Families
 from gbpipe.harmonics.regression import family_groups
-from gbpipe.harmonics.removal import MULTICHANNEL, remove_harmonics
+from gbpipe.harmonics.removal import MULTICHANNEL, channel_groups, remove_harmonics
 from gbpipe.harmonics.separation import separation_metrics
 from gbpipe.harmonics.shaft_angles import shaft_twist
 from gbpipe.harmonics.stage import envelope_modes, split_residuals, watched_modes
@@ -319,8 +319,8 @@ def method_residuals(record: xr.Dataset | Sequence[xr.Dataset], names: Sequence[
 
     lowest, what = (min(float(o) for orders in families.values() for o in orders),
                     f"{method} removal of {', '.join(families)}")
-    # multichannel: the channels at once (shared regressors), else one by one (memory)
-    groups = [list(names)] if method in MULTICHANNEL else [[name] for name in names]
+    values = first.sizes["time"] * (1 if first is record else len(record))  # per channel
+    groups = channel_groups(method, names, values)  # MULTICHANNEL ones share regressors
     progress = Progress(log, f"{what}: {len(names)} signals", len(groups))
     out: list[xr.Dataset] = []
     for k, group in enumerate(groups, 1):

@@ -24,7 +24,7 @@ method's own keyword arguments.
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from fractions import Fraction
 from typing import Literal
 
@@ -39,8 +39,8 @@ from gbpipe.harmonics.tacho import AngleMethod
 from gbpipe.harmonics.tsa import residual
 from gbpipe.harmonics.vkf import residual_vkf
 
-__all__ = ["METHODS", "MULTICHANNEL", "RemovalMethod", "family_cycles", "residual_tsa",
-           "remove_harmonics"]
+__all__ = ["METHODS", "MULTICHANNEL", "GROUP_BYTES", "RemovalMethod", "channel_groups",
+           "family_cycles", "residual_tsa", "remove_harmonics"]
 
 #: A removal method: ``f(x, fs, pulse_times, families, pulses_per_rev=1, **params)``.
 RemovalMethod = Callable[..., np.ndarray]
@@ -96,6 +96,38 @@ METHODS: dict[str, RemovalMethod] = {
 #: of several records of one angle, (records, n, channels): their work on the angle
 #: (regressors, factors) is shared by the channels.
 MULTICHANNEL = frozenset({"regression"})
+
+#: Bytes of float64 that a group of channels removed in one call may hold in
+#: :func:`gbpipe.harmonics.split_residuals`' three arrays of them (the signals, their low
+#: parts, the residuals). The regression of an hour's 8 channels at 5 kHz in one call held
+#: 3.45 GB of them (4.3 GB at the peak, its own work ~0.9 GB): 1.5 GiB keeps such a job
+#: under 3 GB; every record of the default and CI runs is one group, as before.
+GROUP_BYTES = 3 * 2**29
+
+
+def channel_groups(method: str, names: Sequence[str], values: int) -> list[list[str]]:
+    """The channels of a record removed in one call each.
+
+    Parameters
+    ----------
+    method : str
+        A name of :data:`METHODS`.
+    names : sequence of str
+        The channels.
+    values : int
+        Samples of one channel, times the records removed with it.
+
+    Returns
+    -------
+    list of list of str
+        A :data:`MULTICHANNEL` method's channels in groups whose three arrays fit
+        :data:`GROUP_BYTES` (each channel's result is the one it has alone, so the groups
+        change the memory and the shared work, not the result); any other's one by one.
+    """
+    if method not in MULTICHANNEL:
+        return [[name] for name in names]
+    size = max(1, GROUP_BYTES // (3 * 8 * max(int(values), 1)))
+    return [list(names[i:i + size]) for i in range(0, len(names), size)]
 
 
 def remove_harmonics(name: str, x: np.ndarray, fs: float, pulse_times: np.ndarray,

@@ -22,7 +22,11 @@ envelope of order ``k`` is (1) on the signal minus every other order's current
 waveform, in turn, until a pass changes the residual by less than ``tol`` of the
 harmonics found. The residual settles in a few passes; orders closer than about the
 bandwidth keep trading a shared component (the joint problem itself can hardly tell them
-apart), which changes their split but not their sum, so the passes stop on the residual.
+apart), which changes their split more than their sum, so the passes stop on the residual.
+Orders within about a bandwidth of each other (or of 0 Hz) can make the passes diverge
+(an order's update is symmetric but its gain exceeds 1 near the record's ends): a run
+whose residual change grows twice in a row to twice its least stops there, returns the
+pass that changed least and names the crowded orders (:func:`crowded_orders`).
 The tolerance bounds what is left unconverged over the whole record, and a bin where
 orders crowd leaves more: with ``tol = 1e-3`` (-60 dB overall) the worst rpm bin of the
 motor and mesh-1 families read 59.7-62 dB on the 18 rpm/s crossing sweeps
@@ -37,9 +41,8 @@ change it reached.
 Numerics. The condition number of (1) is about ``1 + 4^s w``; above ~1e14 a float64
 Cholesky loses the digits a -60 dB removal needs, so narrower bandwidths are refused
 (decimate the record first, or use :mod:`gbpipe.harmonics.regression`). Below it the
-rounding error lies in the fast envelope directions that the structural equation damps:
-iterative refinement changed the removal by < 5 dB at > 90 dB on the test sweeps, at
-twice the cost, so it is not done.
+rounding error lies in the fast envelope directions that the structural equation damps
+(iterative refinement: < 5 dB at > 90 dB on the test sweeps, at twice the cost).
 
 Pieces. A record longer than :data:`PIECE` and two margins is removed in overlapping
 pieces (:func:`gbpipe.harmonics.pieces.by_pieces`): the memory is that of a piece
@@ -50,9 +53,8 @@ samples, ``rho`` the modulus of the filter's slowest pole, the root of
 ``1 + w (2 - z - 1/z)^s`` nearest the unit circle (:func:`envelope_margin`). The margin
 is where that falls to ``tol``, below what the passes leave unconverged anyway, plus two
 revolutions: 8300 samples (1.7 s) at 1 Hz, 5 kHz, ``s = 2`` (``rho = 1 - 1.1e-3``), 1 %
-more work on pieces of 2^21 samples. Most of the work is LAPACK's banded triangular
-sweeps (``zpbtrs``), one complex solve per order and pass (docs/removal.md, "Hour-long
-records").
+more work on pieces of 2^21 samples. Most of the work is one complex banded solve
+(``zpbtrs``) per order and pass (docs/removal.md, "Hour-long records").
 """
 
 from __future__ import annotations
@@ -66,11 +68,12 @@ from scipy.special import comb
 
 from gbpipe.harmonics.checks import as_count, as_positive, as_signal
 from gbpipe.harmonics.pieces import by_pieces, slowest_revolution
-from gbpipe.harmonics.removal_inputs import Families, removal_inputs
+from gbpipe.harmonics.removal_inputs import Families, family_orders_checked, removal_inputs
 from gbpipe.harmonics.tacho import AngleMethod
 from gbpipe.progress import Progress
 
-__all__ = ["PIECE", "structural_weight", "envelope_margin", "EnvelopeFilter", "residual_vkf"]
+__all__ = ["PIECE", "structural_weight", "envelope_margin", "EnvelopeFilter", "crowded_orders",
+           "residual_vkf"]
 
 log = logging.getLogger(__name__)
 
@@ -196,6 +199,32 @@ def envelope_margin(weight: float, filter_order: int, decay: float) -> int:
     return int(np.ceil(np.log(decay) / np.log(rho)))
 
 
+def crowded_orders(families: Families, shaft_hz: float, bandwidth_hz: float) -> list[str]:
+    """The tracked orders that lie within two envelope bandwidths of each other or of
+    0 Hz (the mean's envelope) at a shaft speed: where the backfitting may diverge.
+
+    Parameters
+    ----------
+    families : mapping
+        Family name -> orders [HSS orders].
+    shaft_hz, bandwidth_hz : float
+        Shaft speed (the record's slowest: orders lie closest there) and half-power
+        envelope bandwidth at that speed [Hz].
+
+    Returns
+    -------
+    list of str
+        One phrase per crowded pair, e.g. ``"mesh1 0.9022 and shaft 1 (0.33 Hz apart)"``.
+    """
+    named = sorted((float(o) * shaft_hz, f"{name} {float(o):.4g}")
+                   for name, orders in family_orders_checked(families).items()
+                   for o in orders)
+    pairs = [(0.0, "the mean"), *named]
+    return [f"{a} and {b} ({fb - fa:.2g} Hz apart)"
+            for i, (fa, a) in enumerate(pairs) for fb, b in pairs[i + 1:]
+            if fb - fa < 2.0 * bandwidth_hz]
+
+
 def residual_vkf(x: np.ndarray, fs: float, pulse_times: np.ndarray, families: Families,
                  pulses_per_rev: int = 1, *, bandwidth: float = 1.0,
                  bandwidth_unit: Literal["Hz", "order"] = "Hz", filter_order: int = 2,
@@ -259,16 +288,25 @@ def residual_vkf(x: np.ndarray, fs: float, pulse_times: np.ndarray, families: Fa
     margin = (envelope_margin(float(structural_weight(narrowest, fs, s)), s, min(tol, 0.5))
               + int(np.ceil(2 * rev * fs)))
 
+    # said before the long work: where the passes may diverge (see _backfit)
+    crowd = "; ".join(crowded_orders(families, 1.0 / rev, narrowest)) if rev > 0 else ""
+    if crowd:  # a note, not a warning: their sum is removed while the passes converge
+        log.info("Vold-Kalman orders within two bandwidths (%.3g Hz) of each other at "
+                 "the slowest speed (%.3g Hz): %s; the backfitting may not separate "
+                 "them", narrowest, 1.0 / rev, crowd)
+
     def one(part: np.ndarray, pulses: np.ndarray, start: float) -> np.ndarray:
         return _backfit(part, fs, pulses, families, pulses_per_rev, bandwidth,
-                        bandwidth_unit, s, max_iter, tol, start, method)
+                        bandwidth_unit, s, max_iter, tol, start, method, crowd)
     return by_pieces(x, fs, pulse_times, margin, one, piece, t0)
 
 
 def _backfit(x: np.ndarray, fs: float, pulse_times: np.ndarray, families: Families,
              pulses_per_rev: int, bandwidth: float, bandwidth_unit: str, s: int,
-             max_iter: int, tol: float, t0: float, method: AngleMethod) -> np.ndarray:
-    """:func:`residual_vkf` of one piece (checked arguments)."""
+             max_iter: int, tol: float, t0: float, method: AngleMethod,
+             crowd: str) -> np.ndarray:
+    """:func:`residual_vkf` of one piece (checked arguments; ``crowd``: the crowded
+    orders, :func:`crowded_orders`, for the warnings)."""
     rec, _, orders = removal_inputs(x, fs, pulse_times, families, pulses_per_rev, t0, method)
     y = rec.x[rec.span]
     n = y.size
@@ -294,6 +332,10 @@ def _backfit(x: np.ndarray, fs: float, pulse_times: np.ndarray, families: Famili
     # the phasors of the first orders, kept between passes (PHASOR_CACHE_BYTES)
     kept = min(orders.size - 1, PHASOR_CACHE_BYTES // (16 * n))
     phasors: dict[int, tuple[np.ndarray, np.ndarray]] = {}
+    # the output of the pass that changed the residual least, returned if the passes
+    # diverge (module notes; docs/removal.md, "Vold-Kalman orders within a bandwidth")
+    best, best_pass, last, rising = np.inf, 0, np.inf, 0
+    least = np.empty(n)
     for done in range(1, max_iter + 1):
         before = r.copy()
         for k, o in enumerate(orders):
@@ -330,12 +372,29 @@ def _backfit(x: np.ndarray, fs: float, pulse_times: np.ndarray, families: Famili
         change = float(np.linalg.norm(r - before)) / max(found, np.finfo(float).tiny)
         if change <= tol:
             break
+        rising, last = (rising + 1 if change > last else 0), change
+        if change < best:
+            best, best_pass = change, done
+            np.add(r, waves[0], out=least)
+        elif rising >= 2 and change > 2.0 * best:
+            # growing twice in a row to twice its least: diverging (no converging run
+            # measured does: the default run, the test records); more passes only worsen
+            log.warning("Vold-Kalman backfitting diverges: the residual change fell to "
+                        "%.2g of the harmonics found at pass %d and grew to %.2g by pass "
+                        "%d; the output is pass %d's (tol %.2g not reached). Orders "
+                        "within about a bandwidth of each other or of 0 Hz (%s) need a "
+                        "narrower bandwidth (removal.vkf.bandwidth; decimate the record "
+                        "first if float64 refuses it) or the regression method",
+                        best, best_pass, change, done, best_pass, tol, crowd or "none found")
+            out = rec.x.copy()
+            out[rec.span] = least
+            return out
         progress(done, f"residual change {change:.2g}")
     else:
         log.warning("Vold-Kalman backfitting stopped after max_iter = %d passes with the "
                     "residual still changing by %.2g of the harmonics found (tol %.2g): "
-                    "raise max_iter (removal.vkf.max_iter in the config) or widen the "
-                    "bandwidth if orders lie within it", max_iter, change, tol)
+                    "raise max_iter (removal.vkf.max_iter in the config)%s", max_iter,
+                    change, tol, f"; crowded orders: {crowd}" if crowd else "")
     out = rec.x.copy()
     out[rec.span] = r + waves[0]
     return out
