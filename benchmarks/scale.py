@@ -240,8 +240,9 @@ def run_workflow(work: Path, minutes: float, fs: float, jobs: int, removal: bool
     cfg_file.write_text(yaml.safe_dump(overlay(spec, results), sort_keys=False))
     t = time.perf_counter()
     with open(folder / "snakemake.log", "w") as log:
-        subprocess.run(["snakemake", "-j", str(jobs), "--configfile", str(EXAMPLE),
-                        str(cfg_file), *(["--until", *until] if until else ["all"])],
+        targets = ["--until", *until] if until else ["all"]  # first: --configfile takes
+        subprocess.run(["snakemake", "-j", str(jobs), *targets,  # every word after it
+                        "--configfile", str(EXAMPLE), str(cfg_file)],
                        cwd=ROOT, check=True, stdout=log, stderr=subprocess.STDOUT)
     wall = time.perf_counter() - t
     costs = stage_costs(results)
