@@ -10,8 +10,15 @@ import pytest
 import xarray as xr
 from harmonic_sweeps import HSS_LINES, MESH_LINES
 
+import gbpipe.harmonics.comparison as comparison
 import gbpipe.harmonics.removal as removal
-from gbpipe.harmonics import compare_method, method_params, method_residuals, removal_rows
+from gbpipe.harmonics import (
+    compare_method,
+    method_params,
+    method_residuals,
+    removal_rows,
+    split_residuals,
+)
 
 SPEC = {"signal": "torque_meter_driven_measured", "metric_rpm_bins": 4,
         "mode_half_width": 4.0, "mode_max_frequency": 400.0, "max_frequency": 700.0}
@@ -183,7 +190,14 @@ def test_a_long_records_channels_go_in_groups_each_as_alone(sw, monkeypatch):
     monkeypatch.setattr(removal, "GROUP_BYTES", 2 * 3 * 8 * rec.sizes["time"])
     assert removal.channel_groups("regression", list(channels), rec.sizes["time"]) == [
         ["a", "b"], ["c"]]
+    calls = []
+
+    def recorded(record, group, *rest):
+        calls.append(list(group))
+        return split_residuals(record, group, *rest)
+    monkeypatch.setattr(comparison, "split_residuals", recorded)
     grouped = method_residuals(rec, *args)
+    assert calls == [["a", "b"], ["c"]]  # the record's channels went in those groups
     assert list(grouped.data_vars) == ["a", "b", "c"]
     for k, v in channels.items():
         assert grouped[k].attrs["units"] == f"{k} unit"

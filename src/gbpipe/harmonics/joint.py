@@ -21,6 +21,7 @@ import numpy as np
 
 from gbpipe.harmonics.averaging import CyclePlan
 from gbpipe.harmonics.checks import as_count, as_order
+from gbpipe.harmonics.least_change import LeastChange
 from gbpipe.harmonics.tacho import AngleMethod
 from gbpipe.harmonics.tsa import check_averaging, check_band_limit, checked_record, valid_mask
 from gbpipe.progress import Progress
@@ -165,7 +166,8 @@ def residual_joint(
     passes = 1 if mode == "cascade" else max_iter
     converged = mode == "cascade"
     iterations = 0
-    best: tuple[float, int, np.ndarray, list[np.ndarray]] | None = None
+    best: tuple[np.ndarray, list[np.ndarray]] | None = None
+    guard = LeastChange(_GROWTH_PASSES)
     progress = Progress(log, f"joint TSA of {len(plans)} families on {x.size} samples", passes)
     for _ in range(passes):
         iterations += 1
@@ -192,12 +194,12 @@ def residual_joint(
         # part: change 0.021, 0.0072, 0.0060, then x1.36 per pass). Keep the iterate after
         # the smallest change; once the change has grown for _GROWTH_PASSES passes in a
         # row, go back to it and stop (a warning below says so).
-        if best is None or rel < best[0]:
-            best = (rel, iterations, r.copy(), [s.copy() for s in S])
-        elif iterations - best[1] >= _GROWTH_PASSES:
+        if guard.update(rel, iterations):
+            best = (r.copy(), [s.copy() for s in S])
+        elif guard.diverged(rel, iterations):
             break
-    if not converged and best is not None and history[-1] > best[0]:
-        rel_best, at, r, S = best
+    if not converged and best is not None and history[-1] > guard.least:
+        (r, S), rel_best, at = best, guard.least, guard.at
         if not rel_best < 1.0:  # not even one pass smaller than the signal: no separation
             raise ValueError(
                 f"residual_joint diverged (smallest relative change {rel_best:.2g}, at pass "

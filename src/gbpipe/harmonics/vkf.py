@@ -25,8 +25,8 @@ bandwidth keep trading a shared component (the joint problem itself can hardly t
 apart), which changes their split more than their sum, so the passes stop on the residual.
 Orders within about a bandwidth of each other (or of 0 Hz) can make the passes diverge
 (an order's update is symmetric but its gain exceeds 1 near the record's ends): a run
-whose residual change grows twice in a row to twice its least stops there, returns the
-pass that changed least and names the crowded orders (:func:`crowded_orders`).
+whose change is twice its least, two or more passes after it, returns the least's output
+(:mod:`gbpipe.harmonics.least_change`) and names the crowded orders.
 The tolerance bounds what is left unconverged over the whole record, and a bin where
 orders crowd leaves more: with ``tol = 1e-3`` (-60 dB overall) the worst rpm bin of the
 motor and mesh-1 families read 59.7-62 dB on the 18 rpm/s crossing sweeps
@@ -67,6 +67,7 @@ from scipy.linalg import cho_solve_banded, cholesky_banded
 from scipy.special import comb
 
 from gbpipe.harmonics.checks import as_count, as_positive, as_signal
+from gbpipe.harmonics.least_change import LeastChange
 from gbpipe.harmonics.pieces import by_pieces, slowest_revolution
 from gbpipe.harmonics.removal_inputs import Families, family_orders_checked, removal_inputs
 from gbpipe.harmonics.tacho import AngleMethod
@@ -200,8 +201,9 @@ def envelope_margin(weight: float, filter_order: int, decay: float) -> int:
 
 
 def crowded_orders(families: Families, shaft_hz: float, bandwidth_hz: float) -> list[str]:
-    """The tracked orders that lie within two envelope bandwidths of each other or of
-    0 Hz (the mean's envelope) at a shaft speed: where the backfitting may diverge.
+    """The tracked orders that lie within two envelope bandwidths of each other, or within
+    2.5 of 0 Hz (the mean's envelope), at a shaft speed: where the backfitting may diverge
+    (``benchmarks/vkf_divergence.py``: a pass's spectral radius exceeds 1 there).
 
     Parameters
     ----------
@@ -222,7 +224,7 @@ def crowded_orders(families: Families, shaft_hz: float, bandwidth_hz: float) -> 
     pairs = [(0.0, "the mean"), *named]
     return [f"{a} and {b} ({fb - fa:.2g} Hz apart)"
             for i, (fa, a) in enumerate(pairs) for fb, b in pairs[i + 1:]
-            if fb - fa < 2.0 * bandwidth_hz]
+            if fb - fa <= (2.5 if i == 0 else 2.0) * bandwidth_hz]
 
 
 def residual_vkf(x: np.ndarray, fs: float, pulse_times: np.ndarray, families: Families,
@@ -289,9 +291,10 @@ def residual_vkf(x: np.ndarray, fs: float, pulse_times: np.ndarray, families: Fa
               + int(np.ceil(2 * rev * fs)))
 
     # said before the long work: where the passes may diverge (see _backfit)
-    crowd = "; ".join(crowded_orders(families, 1.0 / rev, narrowest)) if rev > 0 else ""
+    pairs = crowded_orders(families, 1.0 / rev, narrowest) if rev > 0 else []
+    crowd = "; ".join(pairs[:6]) + (f"; {len(pairs) - 6} more" if len(pairs) > 6 else "")
     if crowd:  # a note, not a warning: their sum is removed while the passes converge
-        log.info("Vold-Kalman orders within two bandwidths (%.3g Hz) of each other at "
+        log.info("Vold-Kalman orders within 2 x %.3g Hz (the bandwidth) of each other at "
                  "the slowest speed (%.3g Hz): %s; the backfitting may not separate "
                  "them", narrowest, 1.0 / rev, crowd)
 
@@ -332,10 +335,10 @@ def _backfit(x: np.ndarray, fs: float, pulse_times: np.ndarray, families: Famili
     # the phasors of the first orders, kept between passes (PHASOR_CACHE_BYTES)
     kept = min(orders.size - 1, PHASOR_CACHE_BYTES // (16 * n))
     phasors: dict[int, tuple[np.ndarray, np.ndarray]] = {}
-    # the output of the pass that changed the residual least, returned if the passes
-    # diverge (module notes; docs/removal.md, "Vold-Kalman orders within a bandwidth")
-    best, best_pass, last, rising = np.inf, 0, np.inf, 0
-    least = np.empty(n)
+    # the output of the least-changing pass after the first (whose change is the whole
+    # estimate's), returned if the passes diverge or end above it (docs/removal.md, "Vold-
+    # Kalman orders within a bandwidth"); a converging run's change can rise a while
+    guard, least = LeastChange(patience=2, factor=2.0), np.empty(n)
     for done in range(1, max_iter + 1):
         before = r.copy()
         for k, o in enumerate(orders):
@@ -372,29 +375,26 @@ def _backfit(x: np.ndarray, fs: float, pulse_times: np.ndarray, families: Famili
         change = float(np.linalg.norm(r - before)) / max(found, np.finfo(float).tiny)
         if change <= tol:
             break
-        rising, last = (rising + 1 if change > last else 0), change
-        if change < best:
-            best, best_pass = change, done
+        if done > 1 and guard.update(change, done):
             np.add(r, waves[0], out=least)
-        elif rising >= 2 and change > 2.0 * best:
-            # growing twice in a row to twice its least: diverging (no converging run
-            # measured does: the default run, the test records); more passes only worsen
-            log.warning("Vold-Kalman backfitting diverges: the residual change fell to "
-                        "%.2g of the harmonics found at pass %d and grew to %.2g by pass "
-                        "%d; the output is pass %d's (tol %.2g not reached). Orders "
-                        "within about a bandwidth of each other or of 0 Hz (%s) need a "
-                        "narrower bandwidth (removal.vkf.bandwidth; decimate the record "
-                        "first if float64 refuses it) or the regression method",
-                        best, best_pass, change, done, best_pass, tol, crowd or "none found")
-            out = rec.x.copy()
-            out[rec.span] = least
-            return out
+        elif guard.diverged(change, done):
+            break
         progress(done, f"residual change {change:.2g}")
-    else:
-        log.warning("Vold-Kalman backfitting stopped after max_iter = %d passes with the "
-                    "residual still changing by %.2g of the harmonics found (tol %.2g): "
-                    "raise max_iter (removal.vkf.max_iter in the config)%s", max_iter,
-                    change, tol, f"; crowded orders: {crowd}" if crowd else "")
     out = rec.x.copy()
     out[rec.span] = r + waves[0]
+    if change <= tol:
+        return out
+    advice = (f"orders within about a bandwidth of each other or of 0 Hz ({crowd}) need a "
+              "narrower bandwidth (removal.vkf.bandwidth; decimate the record first if "
+              "float64 refuses it) or the regression method" if crowd else
+              "raise max_iter (removal.vkf.max_iter in the config)")
+    worse = change > guard.least  # diverged, or ended above its least: the least's output
+    if worse:
+        out[rec.span] = least
+    what = (f"diverges: the residual change grew from {guard.least:.2g} of the harmonics "
+            f"found (pass {guard.at}) to {change:.2g} (pass {done})" if done < max_iter else
+            f"stopped after max_iter = {max_iter} passes with the residual still changing "
+            f"by {change:.2g} of the harmonics found")
+    log.warning("Vold-Kalman backfitting %s; tol %.2g not reached%s: %s", what, tol,
+                f", pass {guard.at}'s output is returned" if worse else "", advice)
     return out
