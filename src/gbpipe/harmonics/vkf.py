@@ -380,17 +380,16 @@ def _backfit(x: np.ndarray, fs: float, pulse_times: np.ndarray, families: Famili
         elif guard.diverged(change, done):
             break
         progress(done, f"residual change {change:.2g}")
+    # diverged, or ended above its least: the least's output, else the last pass's
+    worse = change > tol and change > guard.least
     out = rec.x.copy()
-    out[rec.span] = r + waves[0]
+    out[rec.span] = least if worse else r + waves[0]
     if change <= tol:
         return out
     advice = (f"orders within about a bandwidth of each other or of 0 Hz ({crowd}) need a "
               "narrower bandwidth (removal.vkf.bandwidth; decimate the record first if "
               "float64 refuses it) or the regression method" if crowd else
               "raise max_iter (removal.vkf.max_iter in the config)")
-    worse = change > guard.least  # diverged, or ended above its least: the least's output
-    if worse:
-        out[rec.span] = least
     what = (f"diverges: the residual change grew from {guard.least:.2g} of the harmonics "
             f"found (pass {guard.at}) to {change:.2g} (pass {done})" if done < max_iter else
             f"stopped after max_iter = {max_iter} passes with the residual still changing "
