@@ -6,14 +6,18 @@ sensor (8 channels and a tacho, 5 kHz), simulated exactly in blocks of one minut
 (:func:`gbpipe.lti.lsim` carrying the state; the excitation filter carries its own) and
 written the way ``tests/measured/shaftline_bench.py`` writes them: the motor torques in a
 CSV with a time column, the sensors, the excitation and the tacho in a TDMS file (one
-segment per block). The workflow runs on them with the example's config plus the TSA
-version (``identify.versions: [raw, tsa]``) and the fit, in its own results folder; each
-job logs its own peak RSS and CPU time at exit (``results/logs/``), Snakemake its wall
-(``results/benchmarks/``). With ``--removal`` the regression and VKF removals, which the
-measured workflow does not run, are timed by :func:`gbpipe.harmonics.method_residuals` in
-a child process on the record the workflow read, opened lazily as the stages open it (a
-signal is read when it is removed; its own ``getrusage``; its log, with
-the progress and heartbeat lines, in ``results/logs/removal_<method>.log``).
+segment per block). The workflow runs on them with the example's config and the fit, in
+its own results folder; each job logs its own peak RSS and CPU time at exit
+(``results/logs/``), Snakemake its wall (``results/benchmarks/``). With ``--removal`` the
+removals the measured workflow does not run on this record are timed, each in a child
+process on the record the workflow read, opened lazily as the stages open it (a signal is
+read when it is removed; its own ``getrusage``; its log, with the progress and heartbeat
+lines, in ``results/logs/removal_<method>.log``), ``--jobs`` of them at a time as
+Snakemake would run them: the regression and the VKF by
+:func:`gbpipe.harmonics.method_residuals` (the chain's own order families), and TSA by
+:func:`gbpipe.harmonics.record_residuals`, the ``tsa_measured`` stage, with the cycles of
+``tsa.tests`` on the paper's gearbox (the workflow runs TSA only on records of that
+gearbox: on this chain its cycles are not the lines' ones, but its work is the same).
 
 The example's config includes the ``virtual`` stage (since the merge of branch ``virt``):
 its filter, smoother and output run in blocks, 1.6 GB at 60 min (docs/cluster.md, "The
@@ -25,7 +29,8 @@ the longest record is dominated by its imports and is marked ``floor``). The lar
 between two lines of a job's log is its silence: a stage over 10 s must stay under 10 s.
 
 Usage: ``PYTHONPATH=$PWD/src python benchmarks/scale.py [--minutes 6 20 60] [--fs 5000]
-[--work /tmp/gbpipe_scale] [--jobs 2] [--removal [--removal-signals N]] [--until RULE ..]
+[--work /tmp/gbpipe_scale] [--jobs 2] [--removal [vkf tsa regression] [--removal-signals N]]
+[--until RULE ..]
 [--json FILE]``
 """
 
@@ -73,6 +78,7 @@ from tests.measured.shaftline_bench import (  # noqa: E402  (the test bench's re
 EXAMPLE = ROOT / "config" / "examples" / "shaftline.yaml"
 BLOCK_S = 60.0          # s simulated and written at once
 EXTRA_SENSOR = {"name": "speed_flywheel", "speed": "flywheel"}   # the 8th channel
+REMOVALS = ("vkf", "tsa", "regression")   # --removal: timed beside the workflow, longest first
 LOG_TIME = re.compile(r"^(\d{4}-\d\d-\d\d \d\d:\d\d:\d\d,\d{3}) ")
 
 _REMOVAL_CHILD = """
@@ -81,7 +87,8 @@ import numpy as np
 from gbpipe import io
 from gbpipe.config import load
 io.setup_log(sys.argv[3])  # progress and heartbeat lines: the longest silence
-from gbpipe.harmonics import method_params, method_residuals, test_families
+from gbpipe.harmonics import (method_params, method_residuals, record_residuals,
+                               test_families)
 from gbpipe.harmonics.stage import MODE_MIN_FREQUENCY
 from gbpipe.model.assembly import bench_ss
 cfg = load(*sys.argv[5:])
@@ -94,8 +101,13 @@ lam = np.linalg.eigvals(bench_ss(cfg).A)
 f, z = np.abs(lam) / (2 * np.pi), -lam.real / np.abs(lam)
 keep = (lam.imag > 0) & (f > MODE_MIN_FREQUENCY) & (f < cfg["spectra"]["mode_max_frequency"])
 t = time.perf_counter()
-params = method_params(cfg["removal"], sys.argv[2], fam, np.column_stack([f[keep], z[keep]]))
-method_residuals(rec, names, sys.argv[2], params, fam, cfg["identify"]["tsa_keep_below"])
+if sys.argv[2] == "tsa":  # the tsa_measured stage (its config, as the rule builds it)
+    record_residuals(rec, names, cfg["gearbox"]["stages"], cfg["tsa"],
+                     cfg["identify"]["tsa_keep_below"])
+else:
+    params = method_params(cfg["removal"], sys.argv[2], fam,
+                           np.column_stack([f[keep], z[keep]]))
+    method_residuals(rec, names, sys.argv[2], params, fam, cfg["identify"]["tsa_keep_below"])
 u = resource.getrusage(resource.RUSAGE_SELF)
 hwm = next(float(x.split()[1]) / 1e3 for x in open("/proc/self/status")
            if x.startswith("VmHWM"))
@@ -175,10 +187,9 @@ def write_record(folder: Path, minutes: float, fs: float, seed: int = 1,
 
 def overlay(spec: dict, results: Path) -> dict:
     """Config overlay of the example for one record: the record, the 8th channel in the
-    chain, the TSA version, its own results folder."""
+    chain, its own results folder."""
     return {"results": str(results), "drivetrain": drivetrain()["drivetrain"],
             "measured": {"run1": spec},
-            "identify": {"versions": ["raw", "tsa"]},
             # one line-carrying shaft angle (the tacho's): no second angle to regress on
             "removal": {"regression": {"second_angle": []}}}
 
@@ -220,11 +231,13 @@ def longest_silence(log: Path) -> float:
     return float(np.max(np.diff(stamps))) if len(stamps) > 1 else 0.0
 
 
-def run_workflow(work: Path, minutes: float, fs: float, jobs: int, removal: bool,
-                 until: list[str] | None = None, removal_signals: int = 0) -> dict:
+def run_workflow(work: Path, minutes: float, fs: float, jobs: int,
+                 removal: list[str] | None = None, until: list[str] | None = None,
+                 removal_signals: int = 0) -> dict:
     """Write one record (unless its folder holds it), run the workflow on it (every rule,
     or with ``until`` only those rules and what they need), return the stage costs;
-    ``removal_signals``: the removals on that many signals (0: all)."""
+    ``removal``: the removal methods timed after it, ``jobs`` at a time,
+    ``removal_signals``: on that many signals (0: all)."""
     folder = work / f"{minutes:g}min"
     t = time.perf_counter()
     spec_file = folder / "bench" / "spec.json"
@@ -246,18 +259,34 @@ def run_workflow(work: Path, minutes: float, fs: float, jobs: int, removal: bool
                        cwd=ROOT, check=True, stdout=log, stderr=subprocess.STDOUT)
     wall = time.perf_counter() - t
     costs = stage_costs(results)
-    for method in ("regression", "vkf") if removal else ():
-        log = results / "logs" / f"removal_{method}.log"
-        out = subprocess.run([sys.executable, "-c", _REMOVAL_CHILD,
-                              str(results / "measured" / "run1.nc"), method, str(log),
-                              str(removal_signals),
-                              str(ROOT / "config" / "config.yaml"), str(EXAMPLE),
-                              str(cfg_file)],
-                             capture_output=True, text=True, check=True)
-        r = json.loads(out.stdout.strip().splitlines()[-1])
-        costs[f"removal_{method}*"] = {"jobs": 1, "wall_s": r["wall_s"], "cpu_s": r["cpu_s"],
-                                       "rss_mb": r["rss_mb"], "silence_s": longest_silence(log)}
-    return {"minutes": minutes, "workflow_wall_s": wall, "stages": costs}
+    t = time.perf_counter()
+    waiting, running = list(removal or []), {}
+    while waiting or running:
+        while waiting and len(running) < jobs:  # as Snakemake runs jobs: `jobs` at a time
+            method = waiting.pop(0)
+            running[method] = subprocess.Popen(
+                [sys.executable, "-c", _REMOVAL_CHILD, str(results / "measured" / "run1.nc"),
+                 method, str(results / "logs" / f"removal_{method}.log"),
+                 str(removal_signals), str(ROOT / "config" / "config.yaml"), str(EXAMPLE),
+                 str(cfg_file)], stdout=subprocess.PIPE, text=True,
+                stderr=open(results / "logs" / f"removal_{method}.stderr", "w"))
+        time.sleep(0.5)
+        for method, child in list(running.items()):
+            if child.poll() is None:
+                continue
+            out = child.communicate()[0]
+            if child.returncode:
+                raise RuntimeError(f"the {method} removal failed ({child.returncode}): see "
+                                   f"{results / 'logs' / f'removal_{method}.stderr'}")
+            del running[method]
+            r = json.loads(out.strip().splitlines()[-1])
+            log = results / "logs" / f"removal_{method}.log"
+            costs[f"removal_{method}*"] = {"jobs": 1, "wall_s": r["wall_s"],
+                                           "cpu_s": r["cpu_s"], "rss_mb": r["rss_mb"],
+                                           "silence_s": longest_silence(log)}
+    removal_wall = time.perf_counter() - t if removal else 0.0
+    return {"minutes": minutes, "workflow_wall_s": wall, "removal_wall_s": removal_wall,
+            "stages": costs}
 
 
 def exponents(rows: list[dict]) -> dict[str, dict]:
@@ -280,10 +309,11 @@ def main() -> None:
     ap.add_argument("--work", type=Path, default=Path("/tmp/gbpipe_scale"))
     ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument("--json", type=Path, help="also write the measurements here")
-    ap.add_argument("--removal", action="store_true",
-                    help="also time the regression and VKF removals of every signal (not "
-                         "workflow stages of a bench record; VKF: about 4 s of CPU per "
-                         "signal and minute of record: docs/cluster.md)")
+    ap.add_argument("--removal", nargs="*", choices=REMOVALS, metavar="METHOD",
+                    help="also time these removals of every signal (default: "
+                         f"{' '.join(REMOVALS)}; not workflow stages of this record; VKF: "
+                         "about 1.4 s of CPU per signal and minute of record: "
+                         "docs/cluster.md)")
     ap.add_argument("--removal-signals", type=int, default=0, metavar="N",
                     help="time the removals on the first N signals only (0: all; the VKF "
                          "takes them one at a time, the same work each)")
@@ -292,10 +322,13 @@ def main() -> None:
     args = ap.parse_args()
     rows = []
     for minutes in args.minutes:
-        rows.append(run_workflow(args.work, minutes, args.fs, args.jobs, args.removal,
+        removal = None if args.removal is None else (args.removal or list(REMOVALS))
+        rows.append(run_workflow(args.work, minutes, args.fs, args.jobs, removal,
                                  args.until, args.removal_signals))
         r = rows[-1]
-        print(f"\n{minutes:g} min at {args.fs:g} Hz: workflow {r['workflow_wall_s']:.0f} s wall")
+        print(f"\n{minutes:g} min at {args.fs:g} Hz: workflow {r['workflow_wall_s']:.0f} s "
+              f"wall, then the removals {r['removal_wall_s']:.0f} s wall ({args.jobs} at a "
+              f"time): {r['workflow_wall_s'] + r['removal_wall_s']:.0f} s")
         print(f"{'stage':32} {'jobs':>4} {'wall s':>8} {'CPU s':>8} {'RSS MB':>8} "
               f"{'silence s':>9}")
         for stage, c in r["stages"].items():

@@ -5,6 +5,8 @@ lines of known amplitude at exact HSS and mesh orders."""
 
 from __future__ import annotations
 
+import tracemalloc
+
 import numpy as np
 import pytest
 import xarray as xr
@@ -172,8 +174,8 @@ def test_method_residuals_keep_the_low_part_and_remove_the_lines(sw):
 
 
 def test_a_long_records_channels_go_in_groups_each_as_alone(sw, monkeypatch):
-    # a record too long for its channels' three arrays in one call (GROUP_BYTES, here
-    # set to two channels' worth) is removed two channels and then one: every channel's
+    # a record too long for its channels' array in one call (GROUP_BYTES, here set to
+    # two channels' worth) is removed two channels and then one: every channel's
     # residual is the one of all channels in one call, to the BLAS order's rounding, and
     # the result holds the channels in their order with their units
     rng = np.random.default_rng(11)
@@ -187,7 +189,7 @@ def test_a_long_records_channels_go_in_groups_each_as_alone(sw, monkeypatch):
                      coords={"time": ("time", sw["t"], {"units": "s"})}, attrs=attrs)
     args = (list(channels), "regression", {"knot_spacing": 1.0}, _families(sw), 0.5)
     whole = method_residuals(rec, *args)
-    monkeypatch.setattr(removal, "GROUP_BYTES", 2 * 3 * 8 * rec.sizes["time"])
+    monkeypatch.setattr(removal, "GROUP_BYTES", 2 * 8 * rec.sizes["time"])
     assert removal.channel_groups("regression", list(channels), rec.sizes["time"]) == [
         ["a", "b"], ["c"]]
     calls = []
@@ -203,3 +205,37 @@ def test_a_long_records_channels_go_in_groups_each_as_alone(sw, monkeypatch):
         assert grouped[k].attrs["units"] == f"{k} unit"
         np.testing.assert_allclose(grouped[k].values, whole[k].values, rtol=0,
                                    atol=1e-11 * np.max(np.abs(v)))
+
+
+def test_a_records_channels_are_held_once_while_the_regression_removes_them(sw):
+    # split_residuals' array of the channels is the regression's input and output
+    # (overwrite_x), the low part filtered again rather than kept: numpy's allocations
+    # (traced by tracemalloc) peak at the channels' one array plus the regression's work
+    # on one piece -- not three arrays (signals, low parts, residuals), nor a list of the
+    # channels beside their array. The residuals are those of a call that copies.
+    rng = np.random.default_rng(12)
+    lines = sw["hss"] + sw["mesh"]
+    k, n = 12, sw["t"].size
+    channels = {f"s{j}": (1 + j) * lines + 0.3 * rng.standard_normal(n) for j in range(k)}
+    rec = xr.Dataset({f"{c}_measured": ("time", v, {"units": "N m"})
+                      for c, v in channels.items()}
+                     | {"pulse_time": ("pulse", sw["pulses"], {"units": "s"})},
+                     coords={"time": ("time", sw["t"], {"units": "s"})},
+                     attrs={"sample_rate": sw["fs"], "pulses_per_rev": 1})
+    piece = n // 8  # the regression's pieces: its work is of one piece
+    args = (list(channels), "regression", {"knot_spacing": 1.0, "piece": piece},
+            _families(sw), 0.5)
+    tracemalloc.start()
+    held = method_residuals(rec, *args)
+    peak = tracemalloc.get_traced_memory()[1]
+    tracemalloc.stop()
+    one = 8 * n * k  # bytes of the channels' array
+    assert peak < 1.75 * one, (peak / one)
+
+    def copying(x, fs, pulses, ppr):
+        return removal.remove_harmonics("regression", x.copy(), fs, pulses, _families(sw),
+                                        ppr, knot_spacing=1.0, piece=piece)
+    copied = split_residuals(rec, list(channels), copying, min(min(o) for o in
+                             _families(sw).values()), 0.5, "regression")
+    for c in channels:
+        np.testing.assert_array_equal(held[c].values, copied[c].values)

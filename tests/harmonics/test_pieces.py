@@ -79,3 +79,30 @@ def test_joint_tsa_in_pieces_removes_the_families_as_well_as_on_the_whole_record
     assert 0.45 < line(pieces, 7.3) / 0.5 < 1.05          # not a family's: kept
     assert np.std(pieces - whole) < 1.5 * 0.3 / np.sqrt(n_cycles)
     assert abs(np.std(pieces) / np.std(whole) - 1) < 0.01
+
+
+def test_pieces_written_over_the_record_equal_a_local_filter_of_the_whole_record():
+    # a removal that looks up to ``w`` samples either side (x minus its centred moving
+    # average) is local: in pieces whose margins exceed ``w`` every kept sample is the
+    # whole record's, written over the record itself or not; over the record, a piece's
+    # left margin must still be the record when that piece reads it
+    _, _, x, pulses = _record(50_000, seed=3)
+    w = 400
+    kernel = np.ones(2 * w + 1) / (2 * w + 1)
+
+    def detrend(piece: np.ndarray, p: np.ndarray, t0: float) -> np.ndarray:
+        return piece - np.convolve(piece, kernel, mode="same")
+
+    whole = detrend(x, pulses, 0.0)
+    inner = slice(w, x.size - w)  # (the ends see the zero padding in either way)
+    record = np.column_stack([x, -2 * x])  # two channels, time first
+    out = by_pieces(record, FS, pulses, margin=1_000, piece=7_000, out=record,
+                    remove=lambda r, p, t0: np.column_stack([detrend(c, p, t0) for c in r.T]))
+    assert out is record
+    np.testing.assert_allclose(record[inner, 0], whole[inner], rtol=0, atol=1e-12)
+    np.testing.assert_allclose(record[inner, 1], -2 * whole[inner], rtol=0, atol=1e-12)
+    # a new array by default, the record left as it was
+    again = x.copy()
+    np.testing.assert_allclose(by_pieces(again, FS, pulses, 1_000, detrend, 7_000)[inner],
+                               whole[inner], rtol=0, atol=1e-12)
+    np.testing.assert_array_equal(again, x)

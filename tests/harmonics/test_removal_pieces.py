@@ -123,3 +123,23 @@ def test_regression_in_pieces_removes_as_the_whole_record_within_the_noise_it_fi
                               knot_spacing=h_knot, piece=piece)
     np.testing.assert_allclose(two[:, 0], pieces, rtol=0, atol=1e-9 * np.abs(x).max())
     np.testing.assert_allclose(two[:, 1], 2 * pieces, rtol=0, atol=1e-9 * np.abs(x).max())
+
+
+def test_regression_over_its_record_gives_the_residual_a_new_array_holds():
+    # overwrite_x: the residual replaces the record, in pieces (whose margins the next
+    # piece reads before they are written) and in one call, with per-family knots (each
+    # family group after the first works on its own array) -- the same numbers as a call
+    # that leaves the record alone
+    n, piece = 250_000, 60_000
+    _, _, x, pulses = _record(n, seed=6, noise=0.3)
+    channels = np.column_stack([x, 0.5 * x[::-1]])
+    spacing = {"a": 0.5, "b": 1.0}
+    for cut in (piece, n):
+        alone = residual_regression(channels, FS, pulses, ORDERS, knot_spacing=spacing,
+                                    piece=cut)
+        record = channels.copy()
+        out = residual_regression(record, FS, pulses, ORDERS, knot_spacing=spacing,
+                                  piece=cut, overwrite_x=True)
+        assert np.shares_memory(out, record)
+        np.testing.assert_array_equal(out, alone)
+        np.testing.assert_array_equal(channels[:, 0], x)  # the default leaves it alone

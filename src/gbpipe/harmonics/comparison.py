@@ -315,17 +315,17 @@ def method_residuals(record: xr.Dataset | Sequence[xr.Dataset], names: Sequence[
                                                 else angle_record))
 
     def remove(x: np.ndarray, fs: float, pulses: np.ndarray, ppr: int) -> np.ndarray:
-        return remove_harmonics(method, x, fs, pulses, families, ppr, **run)
+        return remove_harmonics(method, x, fs, pulses, families, ppr, overwrite_x=True, **run)
 
     lowest, what = (min(float(o) for orders in families.values() for o in orders),
                     f"{method} removal of {', '.join(families)}")
     values = first.sizes["time"] * (1 if first is record else len(record))  # per channel
-    groups = channel_groups(method, names, values)  # MULTICHANNEL ones share regressors
+    groups = channel_groups(method, names, values)  # (overwrite_x: x is split_residuals')
     progress = Progress(log, f"{what}: {len(names)} signals", len(groups))
     out: list[xr.Dataset] = []
     for k, group in enumerate(groups, 1):
-        part = split_residuals(record, group, remove, lowest, keep_below, what)  # as given:
-        part = [part] if isinstance(part, xr.Dataset) else part  # a list stacks a copy
+        part = split_residuals(record, group, remove, lowest, keep_below, what)
+        part = [part] if isinstance(part, xr.Dataset) else part
         out = [o.assign(p.data_vars) for o, p in zip(out, part, strict=True)] if out else part
         progress(k, ", ".join(group))
     for ds in out:

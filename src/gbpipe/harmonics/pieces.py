@@ -74,7 +74,8 @@ def block_margin(pulse_times: np.ndarray, pulses_per_rev: int, fs: float,
 
 def by_pieces(x: np.ndarray, fs: float, pulse_times: np.ndarray, margin: int,
               remove: Callable[[np.ndarray, np.ndarray, float], np.ndarray],
-              piece: int = PIECE, t0: float = 0.0) -> np.ndarray:
+              piece: int = PIECE, t0: float = 0.0, out: np.ndarray | None = None,
+              ) -> np.ndarray:
     """``remove`` of ``x`` in overlapping pieces.
 
     Parameters
@@ -94,25 +95,39 @@ def by_pieces(x: np.ndarray, fs: float, pulse_times: np.ndarray, margin: int,
         Samples kept from each piece (at least four margins).
     t0 : float
         Time of the first sample [s].
+    out : ndarray, optional
+        Array of ``x``'s shape the residual is written to; it may be ``x`` itself (the
+        residual then replaces the record, which is held once: a piece's last ``margin``
+        kept samples, the next piece's left margin, are written after that piece has
+        read them). Default: a new array.
 
     Returns
     -------
     ndarray, shape of ``x``
-        The residual, in the unit of ``x``.
+        The residual, in the unit of ``x`` (``out`` when given).
     """
     piece = max(int(piece), 4 * margin)
     n = x.shape[0]
     if n <= piece + 2 * margin:
-        return remove(x, pulse_times, t0)
-    out = np.empty_like(x)
+        if out is None:
+            return remove(x, pulse_times, t0)
+        out[...] = remove(x, pulse_times, t0)
+        return out
+    out = np.empty_like(x) if out is None else out
     starts = range(0, n, piece)
     progress = Progress(log, f"removal in {len(starts)} pieces of {piece} samples",
                         len(starts))
+    held = slice(0, 0), x[:0].copy()  # samples written once the next piece has read them
     for k, a in enumerate(starts, 1):
         b = min(a + piece, n)
         lo, hi = max(a - margin, 0), min(b + margin, n)
         start, end = t0 + lo / fs, t0 + (hi - 1) / fs
         inside = (pulse_times >= start) & (pulse_times <= end)
-        out[a:b] = remove(x[lo:hi], pulse_times[inside], start)[a - lo:b - lo]
+        kept = remove(x[lo:hi], pulse_times[inside], start)[a - lo:b - lo]
+        out[held[0]] = held[1]
+        cut = b - a - (margin if b < n else 0)  # (a piece holds at least four margins)
+        out[a:a + cut] = kept[:cut]
+        held = slice(a + cut, b), kept[cut:].copy()
+        del kept  # the piece's whole result, before the next piece's work
         progress(k)
     return out

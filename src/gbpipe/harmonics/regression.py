@@ -32,11 +32,11 @@ Pieces. With B-splines, a record longer than ``piece`` (default 2^22 samples, 14
 are held per piece. A spline fit forgets a change of the data by ``|lambda|`` per knot
 (:meth:`AmplitudeBasis.reach`; 0.535 for cubics), a modal carrier its start in
 ``1 / (zeta 2 pi f_n)``: the margin (:func:`regression_margin`) is where both have fallen
-to :data:`PIECE_DECAY`. A piece has
-knots of its own (uniform over it) and, with ``modes``, carrier coefficients of its own (a
-constant excitation estimated per piece): it fits the noise near each order with other
-functions than the whole record: the residuals differ by that, within twice the noise a
-fit takes. A Legendre basis is global: always fitted whole.
+to :data:`PIECE_DECAY`. A piece has knots of its own (uniform over it) and, with
+``modes``, carrier coefficients of its own (a constant excitation estimated per piece):
+it fits the noise near each order with other functions than the whole record: the
+residuals differ by that, within twice the noise a fit takes. With ``overwrite_x`` the
+residual replaces the record (held once). A Legendre basis is global: fitted whole.
 """
 
 from __future__ import annotations
@@ -182,7 +182,8 @@ def residual_regression(x: np.ndarray, fs: float, pulse_times: np.ndarray,
                         twist_families: Collection[str] | None = None,
                         twist_phase: float = 0.1,
                         block: int = 8192, t0: float = 0.0,
-                        method: AngleMethod = "pchip", piece: int = PIECE) -> np.ndarray:
+                        method: AngleMethod = "pchip", piece: int = PIECE,
+                        overwrite_x: bool = False) -> np.ndarray:
     """Remove order families by joint least-squares regression on the shaft angle.
 
     Parameters
@@ -247,6 +248,8 @@ def residual_regression(x: np.ndarray, fs: float, pulse_times: np.ndarray,
         Samples per block of the normal-equation accumulation (memory per block).
     piece : int
         Samples per piece of a long record (B-splines; :func:`regression_margin`).
+    overwrite_x : bool
+        ``x`` (float64) may hold the residual on return: a record's channels held once.
 
     Returns
     -------
@@ -283,16 +286,18 @@ def residual_regression(x: np.ndarray, fs: float, pulse_times: np.ndarray,
                     twist=None if twist is None else twist[lo:lo + part.shape[0]],
                     twist_families=twist_families, twist_phase=twist_phase, block=block,
                     t0=start, method=method, piece=part.shape[0]), axis, 0)
-            return np.moveaxis(by_pieces(np.moveaxis(xa, axis, 0), fs, np.asarray(
-                pulse_times, dtype=float), margin, one, piece, t0), 0, axis)
+            moved = np.moveaxis(xa, axis, 0)
+            return np.moveaxis(by_pieces(moved, fs, np.asarray(pulse_times, dtype=float), margin,
+                                         one, piece, t0, moved if overwrite_x else None), 0, axis)
     if isinstance(knot_spacing, Mapping):
         out = xa
-        for spacing, group in family_groups(families, knot_spacing):
-            out = residual_regression(
+        for k, (spacing, group) in enumerate(family_groups(families, knot_spacing)):
+            out = residual_regression(  # (after the first group, ``out`` is its own)
                 out, fs, pulse_times, group, pulses_per_rev, basis=basis, knot_spacing=spacing,
                 degree=degree, ridge=ridge, modes=modes, mode_reach=mode_reach,
                 modal_families=modal_families, twist=twist, twist_families=twist_families,
-                twist_phase=twist_phase, block=block, t0=t0, method=method, piece=piece)
+                twist_phase=twist_phase, block=block, t0=t0, method=method, piece=piece,
+                overwrite_x=overwrite_x or k > 0)
         return out
     if xa.ndim not in (1, 2, 3):
         raise ValueError(f"x must be (n,), (n, channels) or (records, n, channels): {xa.shape}")
@@ -308,8 +313,6 @@ def residual_regression(x: np.ndarray, fs: float, pulse_times: np.ndarray,
     degree, block = as_count(degree, "degree"), as_count(block, "block", 16)
     times = rec.times
     amp = AmplitudeBasis(float(times[0]), float(times[-1]), basis, knot_spacing, degree)
-    # all channels share the regressors (one time base, one angle): the design, the normal
-    # matrix and its factor are built once, and only the right-hand sides are per channel
     y = xs[:, rec.span]
     # the lines: every order on the tachometer angle, and those of the families locked
     # to a second shaft again on its angle (theta + twist); per line its angle's index
@@ -336,8 +339,7 @@ def residual_regression(x: np.ndarray, fs: float, pulse_times: np.ndarray,
             carriers_of.append((a, ords, [(k, j) for k, j in crossing_pairs(
                 ords, (float(rate.min()), float(rate.max())), m, mode_reach) if keep[k]]))
     per_function = 2 * sum(o.size for _, o in lines) + 1
-    n_unknown = amp.size * per_function
-    width = amp.support * per_function  # columns touched by one block
+    n_unknown, width = amp.size * per_function, amp.support * per_function  # (of one block)
     ab, rhs = np.zeros((width, n_unknown)), np.zeros((xs.shape[0], n_unknown, xs.shape[2]))
     # the modal carriers' coefficients are global (the mode's residue times the order's
     # excitation, which the carrier's ring-up pins down where it crosses the mode): a
@@ -348,9 +350,8 @@ def residual_regression(x: np.ndarray, fs: float, pulse_times: np.ndarray,
     cuts = _blocks(times, amp.breaks, block)
     # the lower triangle of a local normal matrix, entry (i, j) -> lower band storage
     # (i - j, first column + j), in one indexed addition per block
-    low_i, low_j = np.tril_indices(width)
+    (low_i, low_j), carriers = np.tril_indices(width), _carriers(angles, fs, m, carriers_of, cuts)
     band_row = low_i - low_j
-    carriers = _carriers(angles, fs, m, carriers_of, cuts)
     kept = [] if n_border * times.size * 8 <= BORDER_CACHE_BYTES else None
     for a, b in zip(cuts[:-1], cuts[1:], strict=True):  # blocks: memory per block only
         design, c0 = _local_design(amp, times[a:b], _phases(angles, lines, a, b))
@@ -386,8 +387,7 @@ def residual_regression(x: np.ndarray, fs: float, pulse_times: np.ndarray,
             coef -= a_inv_c @ coef_b
     for coef in coefs:
         coef[::per_function] = 0.0  # the slow mean is fitted, never subtracted
-    out = xs.copy()
-    seg = out[:, rec.span]
+    seg = (out := xs if overwrite_x else xs.copy())[:, rec.span]
     borders = iter(kept) if kept is not None else map(  # or again, from the start
         _border_design, _carriers(angles, fs, m, carriers_of, cuts))
     for a, b in zip(cuts[:-1], cuts[1:], strict=True):

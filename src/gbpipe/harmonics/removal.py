@@ -98,10 +98,9 @@ METHODS: dict[str, RemovalMethod] = {
 MULTICHANNEL = frozenset({"regression"})
 
 #: Bytes of float64 that a group of channels removed in one call may hold in
-#: :func:`gbpipe.harmonics.split_residuals`' three arrays of them (the signals, their low
-#: parts, the residuals). The regression of an hour's 8 channels at 5 kHz in one call held
-#: 3.45 GB of them (4.3 GB at the peak, its own work ~0.9 GB): 1.5 GiB keeps such a job
-#: under 3 GB; every record of the default and CI runs is one group, as before.
+#: :func:`gbpipe.harmonics.split_residuals`' one array of them (the signals, whose
+#: residuals replace them: ``overwrite_x``). An hour's 8 channels at 5 kHz hold 1.15 GB,
+#: one group (the regression's work on a piece adds about 0.9 GB); two hours' go in two.
 GROUP_BYTES = 3 * 2**29
 
 
@@ -120,18 +119,19 @@ def channel_groups(method: str, names: Sequence[str], values: int) -> list[list[
     Returns
     -------
     list of list of str
-        A :data:`MULTICHANNEL` method's channels in groups whose three arrays fit
+        A :data:`MULTICHANNEL` method's channels in groups whose array fits
         :data:`GROUP_BYTES` (each channel's result is the one it has alone, so the groups
         change the memory and the shared work, not the result); any other's one by one.
     """
     if method not in MULTICHANNEL:
         return [[name] for name in names]
-    size = max(1, GROUP_BYTES // (3 * 8 * max(int(values), 1)))
+    size = max(1, GROUP_BYTES // (8 * max(int(values), 1)))
     return [list(names[i:i + size]) for i in range(0, len(names), size)]
 
 
 def remove_harmonics(name: str, x: np.ndarray, fs: float, pulse_times: np.ndarray,
-                     families: Families, pulses_per_rev: int = 1, **params) -> np.ndarray:
+                     families: Families, pulses_per_rev: int = 1, *,
+                     overwrite_x: bool = False, **params) -> np.ndarray:
     """Residual of ``x`` after removal of ``families`` by the method ``name``.
 
     Parameters
@@ -141,7 +141,8 @@ def remove_harmonics(name: str, x: np.ndarray, fs: float, pulse_times: np.ndarra
     x : array_like, shape (n,), (n, channels) or (records, n, channels)
         Record (any unit, e.g. N m), sample ``i`` at ``t0 + i / fs``; several channels
         of one record (one pulse train) as columns; several records of one time base and
-        pulse train (a record and its harmonic part) along the first axis. Not modified.
+        pulse train (a record and its harmonic part) along the first axis. Not modified
+        unless ``overwrite_x``.
     fs : float
         Sample rate [Hz].
     pulse_times : array_like
@@ -151,6 +152,10 @@ def remove_harmonics(name: str, x: np.ndarray, fs: float, pulse_times: np.ndarra
         :func:`gbpipe.harmonics.excitation_families`).
     pulses_per_rev : int
         Tachometer pulses per HSS revolution.
+    overwrite_x : bool
+        ``x`` may be overwritten by the residual: a :data:`MULTICHANNEL` method then
+        holds a record's channels once (their residual is returned in ``x``'s memory);
+        the others, which take one channel at a time, return a new array.
     **params
         The method's keyword arguments (e.g. ``bandwidth`` for ``vkf``), and ``t0``, the
         time of the first sample [s] (default 0), and ``method``, the angle interpolation
@@ -183,4 +188,6 @@ def remove_harmonics(name: str, x: np.ndarray, fs: float, pulse_times: np.ndarra
         return np.column_stack([METHODS[name](xa[:, j], fs, pulse_times, families,
                                               pulses_per_rev, **params)
                                 for j in range(xa.shape[1])])
+    if name in MULTICHANNEL:
+        params = {**params, "overwrite_x": overwrite_x}
     return METHODS[name](xa, fs, pulse_times, families, pulses_per_rev, **params)
