@@ -5,6 +5,7 @@ analytic response of the second-order Vold-Kalman envelope filter."""
 from __future__ import annotations
 
 import logging
+import re
 
 import numpy as np
 import pytest
@@ -190,3 +191,25 @@ def test_backfitting_that_diverges_keeps_its_least_changed_pass(caplog):
     assert np.std(r[keep] - noise[keep]) < 0.25 * np.std(noise[keep])
     assert "backfitting diverges" in caplog.text
     assert "b 0.9022 and a 1 (0.33 Hz apart)" in caplog.text
+
+
+def test_a_long_records_pieces_that_diverge_give_one_warning(caplog):
+    # the record of the test above, 60 s in pieces: every piece diverges, each returns
+    # its least-changed pass (the lines go to the noise as in one piece), and the run
+    # says so once for all its pieces, with the range of what they reached -- not once
+    # per piece (72 lines for the hour's 8 signals of benchmarks/scale.py)
+    c = constant_speed(rpm=200.0, fs=1000.0, duration=60.0)
+    th = c["theta"]
+    noise = 0.2 * np.random.default_rng(4).standard_normal(th.size)
+    x = np.cos(th + 0.3) + 0.5 * np.cos(203 / 225 * th - 1.0) + noise + 0.5
+    with caplog.at_level(logging.WARNING, logger="gbpipe.harmonics.vkf"):
+        r = residual_vkf(x, c["fs"], c["pulses"], {"a": [1.0], "b": [203 / 225]},
+                         bandwidth=1.0, max_iter=80, piece=15_000)
+    keep = inner(c["t"], c["pulses"], 3.0)
+    assert np.std(r[keep] - noise[keep]) < 0.25 * np.std(noise[keep])
+    warnings = [m for m in caplog.records if m.levelno == logging.WARNING]
+    assert len(warnings) == 1
+    pieces = re.search(r"backfitting in (\d+) of (\d+) pieces diverges", warnings[0].message)
+    assert pieces and int(pieces[1]) == int(pieces[2]) >= 3
+    assert "each piece's least-changed pass is returned" in warnings[0].message
+    assert "b 0.9022 and a 1 (0.33 Hz apart)" in warnings[0].message

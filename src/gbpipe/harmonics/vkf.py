@@ -69,12 +69,12 @@ from scipy.special import comb
 from gbpipe.harmonics.checks import as_count, as_positive, as_signal
 from gbpipe.harmonics.least_change import LeastChange
 from gbpipe.harmonics.pieces import by_pieces, slowest_revolution
-from gbpipe.harmonics.removal_inputs import Families, family_orders_checked, removal_inputs
+from gbpipe.harmonics.removal_inputs import Families, removal_inputs
 from gbpipe.harmonics.tacho import AngleMethod
+from gbpipe.harmonics.vkf_report import Passes, crowded_orders, passes_warning
 from gbpipe.progress import Progress
 
-__all__ = ["PIECE", "structural_weight", "envelope_margin", "EnvelopeFilter", "crowded_orders",
-           "residual_vkf"]
+__all__ = ["PIECE", "structural_weight", "envelope_margin", "EnvelopeFilter", "residual_vkf"]
 
 log = logging.getLogger(__name__)
 
@@ -200,33 +200,6 @@ def envelope_margin(weight: float, filter_order: int, decay: float) -> int:
     return int(np.ceil(np.log(decay) / np.log(rho)))
 
 
-def crowded_orders(families: Families, shaft_hz: float, bandwidth_hz: float) -> list[str]:
-    """The tracked orders that lie within two envelope bandwidths of each other, or within
-    2.5 of 0 Hz (the mean's envelope), at a shaft speed: where the backfitting may diverge
-    (``benchmarks/vkf_divergence.py``: a pass's spectral radius exceeds 1 there).
-
-    Parameters
-    ----------
-    families : mapping
-        Family name -> orders [HSS orders].
-    shaft_hz, bandwidth_hz : float
-        Shaft speed (the record's slowest: orders lie closest there) and half-power
-        envelope bandwidth at that speed [Hz].
-
-    Returns
-    -------
-    list of str
-        One phrase per crowded pair, e.g. ``"mesh1 0.9022 and shaft 1 (0.33 Hz apart)"``.
-    """
-    named = sorted((float(o) * shaft_hz, f"{name} {float(o):.4g}")
-                   for name, orders in family_orders_checked(families).items()
-                   for o in orders)
-    pairs = [(0.0, "the mean"), *named]
-    return [f"{a} and {b} ({fb - fa:.2g} Hz apart)"
-            for i, (fa, a) in enumerate(pairs) for fb, b in pairs[i + 1:]
-            if fb - fa <= (2.5 if i == 0 else 2.0) * bandwidth_hz]
-
-
 def residual_vkf(x: np.ndarray, fs: float, pulse_times: np.ndarray, families: Families,
                  pulses_per_rev: int = 1, *, bandwidth: float = 1.0,
                  bandwidth_unit: Literal["Hz", "order"] = "Hz", filter_order: int = 2,
@@ -298,18 +271,25 @@ def residual_vkf(x: np.ndarray, fs: float, pulse_times: np.ndarray, families: Fa
                  "the slowest speed (%.3g Hz): %s; the backfitting may not separate "
                  "them", narrowest, 1.0 / rev, crowd)
 
+    outcomes: list[Passes | None] = []  # per piece: one warning for them all
+
     def one(part: np.ndarray, pulses: np.ndarray, start: float) -> np.ndarray:
-        return _backfit(part, fs, pulses, families, pulses_per_rev, bandwidth,
-                        bandwidth_unit, s, max_iter, tol, start, method, crowd)
-    return by_pieces(x, fs, pulse_times, margin, one, piece, t0)
+        out, passes = _backfit(part, fs, pulses, families, pulses_per_rev, bandwidth,
+                               bandwidth_unit, s, max_iter, tol, start, method)
+        outcomes.append(passes)
+        return out
+    out = by_pieces(x, fs, pulse_times, margin, one, piece, t0)
+    if (warning := passes_warning(outcomes, tol, max_iter, crowd)) is not None:
+        log.warning(warning)
+    return out
 
 
 def _backfit(x: np.ndarray, fs: float, pulse_times: np.ndarray, families: Families,
              pulses_per_rev: int, bandwidth: float, bandwidth_unit: str, s: int,
              max_iter: int, tol: float, t0: float, method: AngleMethod,
-             crowd: str) -> np.ndarray:
-    """:func:`residual_vkf` of one piece (checked arguments; ``crowd``: the crowded
-    orders, :func:`crowded_orders`, for the warnings)."""
+             ) -> tuple[np.ndarray, Passes | None]:
+    """:func:`residual_vkf` of one piece (checked arguments), and how its passes ended
+    short of ``tol`` (None: they reached it)."""
     rec, _, orders = removal_inputs(x, fs, pulse_times, families, pulses_per_rev, t0, method)
     y = rec.x[rec.span]
     n = y.size
@@ -384,16 +364,5 @@ def _backfit(x: np.ndarray, fs: float, pulse_times: np.ndarray, families: Famili
     worse = change > tol and change > guard.least
     out = rec.x.copy()
     out[rec.span] = least if worse else r + waves[0]
-    if change <= tol:
-        return out
-    advice = (f"orders within about a bandwidth of each other or of 0 Hz ({crowd}) need a "
-              "narrower bandwidth (removal.vkf.bandwidth; decimate the record first if "
-              "float64 refuses it) or the regression method" if crowd else
-              "raise max_iter (removal.vkf.max_iter in the config)")
-    what = (f"diverges: the residual change grew from {guard.least:.2g} of the harmonics "
-            f"found (pass {guard.at}) to {change:.2g} (pass {done})" if done < max_iter else
-            f"stopped after max_iter = {max_iter} passes with the residual still changing "
-            f"by {change:.2g} of the harmonics found")
-    log.warning("Vold-Kalman backfitting %s; tol %.2g not reached%s: %s", what, tol,
-                f", pass {guard.at}'s output is returned" if worse else "", advice)
-    return out
+    return out, (None if change <= tol else
+                 Passes(done < max_iter, guard.least, guard.at, change, done, worse))
