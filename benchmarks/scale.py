@@ -44,6 +44,7 @@ import re
 import subprocess
 import sys
 import time
+from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
@@ -78,7 +79,7 @@ from tests.measured.shaftline_bench import (  # noqa: E402  (the test bench's re
 EXAMPLE = ROOT / "config" / "examples" / "shaftline.yaml"
 BLOCK_S = 60.0          # s simulated and written at once
 EXTRA_SENSOR = {"name": "speed_flywheel", "speed": "flywheel"}   # the 8th channel
-REMOVALS = ("vkf", "tsa", "regression")   # --removal: timed beside the workflow, longest first
+REMOVALS = ("vkf", "tsa", "regression")   # --removal: timed after the workflow, longest first
 LOG_TIME = re.compile(r"^(\d{4}-\d\d-\d\d \d\d:\d\d:\d\d,\d{3}) ")
 
 _REMOVAL_CHILD = """
@@ -231,6 +232,43 @@ def longest_silence(log: Path) -> float:
     return float(np.max(np.diff(stamps))) if len(stamps) > 1 else 0.0
 
 
+def run_removals(results: Path, cfg_file: Path, methods: list[str], jobs: int,
+                 signals: int) -> Iterator[tuple[str, dict]]:
+    """Time each removal method in a child process (:data:`_REMOVAL_CHILD`), ``jobs`` at a
+    time; yield (method, its costs) as each ends. A child that fails stops the others."""
+    logs = results / "logs"
+    waiting, running = list(methods), {}
+    try:
+        while waiting or running:
+            while waiting and len(running) < jobs:  # as Snakemake runs jobs: `jobs` at once
+                method = waiting.pop(0)
+                with (open(logs / f"removal_{method}.out", "w") as out,
+                      open(logs / f"removal_{method}.stderr", "w") as err):
+                    running[method] = subprocess.Popen(
+                        [sys.executable, "-c", _REMOVAL_CHILD,
+                         str(results / "measured" / "run1.nc"), method,
+                         str(logs / f"removal_{method}.log"), str(signals),
+                         str(ROOT / "config" / "config.yaml"), str(EXAMPLE), str(cfg_file)],
+                        stdout=out, stderr=err)
+            time.sleep(0.5)
+            for method, child in list(running.items()):
+                if child.poll() is None:
+                    continue
+                del running[method]
+                lines = (logs / f"removal_{method}.out").read_text().strip().splitlines()
+                if child.returncode or not lines:
+                    raise RuntimeError(f"the {method} removal failed (exit {child.returncode}"
+                                       f"): see {logs / f'removal_{method}.stderr'}")
+                r = json.loads(lines[-1])
+                yield method, {"jobs": 1, "wall_s": r["wall_s"], "cpu_s": r["cpu_s"],
+                               "rss_mb": r["rss_mb"],
+                               "silence_s": longest_silence(logs / f"removal_{method}.log")}
+    finally:  # a failure (or an interrupt) leaves no child running
+        for child in running.values():
+            child.terminate()
+            child.wait()
+
+
 def run_workflow(work: Path, minutes: float, fs: float, jobs: int,
                  removal: list[str] | None = None, until: list[str] | None = None,
                  removal_signals: int = 0) -> dict:
@@ -260,30 +298,9 @@ def run_workflow(work: Path, minutes: float, fs: float, jobs: int,
     wall = time.perf_counter() - t
     costs = stage_costs(results)
     t = time.perf_counter()
-    waiting, running = list(removal or []), {}
-    while waiting or running:
-        while waiting and len(running) < jobs:  # as Snakemake runs jobs: `jobs` at a time
-            method = waiting.pop(0)
-            running[method] = subprocess.Popen(
-                [sys.executable, "-c", _REMOVAL_CHILD, str(results / "measured" / "run1.nc"),
-                 method, str(results / "logs" / f"removal_{method}.log"),
-                 str(removal_signals), str(ROOT / "config" / "config.yaml"), str(EXAMPLE),
-                 str(cfg_file)], stdout=subprocess.PIPE, text=True,
-                stderr=open(results / "logs" / f"removal_{method}.stderr", "w"))
-        time.sleep(0.5)
-        for method, child in list(running.items()):
-            if child.poll() is None:
-                continue
-            out = child.communicate()[0]
-            if child.returncode:
-                raise RuntimeError(f"the {method} removal failed ({child.returncode}): see "
-                                   f"{results / 'logs' / f'removal_{method}.stderr'}")
-            del running[method]
-            r = json.loads(out.strip().splitlines()[-1])
-            log = results / "logs" / f"removal_{method}.log"
-            costs[f"removal_{method}*"] = {"jobs": 1, "wall_s": r["wall_s"],
-                                           "cpu_s": r["cpu_s"], "rss_mb": r["rss_mb"],
-                                           "silence_s": longest_silence(log)}
+    for method, r in run_removals(results, cfg_file, list(dict.fromkeys(removal or [])),
+                                  max(1, jobs), removal_signals):
+        costs[f"removal_{method}*"] = r
     removal_wall = time.perf_counter() - t if removal else 0.0
     return {"minutes": minutes, "workflow_wall_s": wall, "removal_wall_s": removal_wall,
             "stages": costs}

@@ -130,16 +130,19 @@ def test_regression_over_its_record_gives_the_residual_a_new_array_holds():
     # piece reads before they are written) and in one call, with per-family knots (each
     # family group after the first works on its own array) -- the same numbers as a call
     # that leaves the record alone
+    # the channels of one record, (n, channels), and of two records of one angle, (records,
+    # n, channels), whose pieces are cut along the second axis (a strided view)
     n, piece = 250_000, 60_000
     _, _, x, pulses = _record(n, seed=6, noise=0.3)
     channels = np.column_stack([x, 0.5 * x[::-1]])
     spacing = {"a": 0.5, "b": 1.0}
-    for cut in (piece, n):
-        alone = residual_regression(channels, FS, pulses, ORDERS, knot_spacing=spacing,
-                                    piece=cut)
-        record = channels.copy()
-        out = residual_regression(record, FS, pulses, ORDERS, knot_spacing=spacing,
-                                  piece=cut, overwrite_x=True)
-        assert np.shares_memory(out, record)
-        np.testing.assert_array_equal(out, alone)
-        np.testing.assert_array_equal(channels[:, 0], x)  # the default leaves it alone
+    for given in (channels, np.stack([channels, -2.0 * channels])):
+        for cut in (piece, n):
+            alone = residual_regression(given, FS, pulses, ORDERS, knot_spacing=spacing,
+                                        piece=cut)
+            record = given.copy()
+            out = residual_regression(record, FS, pulses, ORDERS, knot_spacing=spacing,
+                                      piece=cut, overwrite_x=True)
+            assert np.shares_memory(out, record)
+            np.testing.assert_array_equal(out, alone)
+    np.testing.assert_array_equal(channels[:, 0], x)  # the default leaves it alone

@@ -3,25 +3,29 @@ their metrics (docs/architecture.md, "Package map").
 
 Modules, each one concept, lowest first:
 
-=============  ==========================================================================
-``checks``     argument and data checks shared by all (DataError / PulseError)
-``tacho``      tachometer pulses: detection, checks and repair, shaft angle and speed
-``angle``      angular resampling to and from constant shaft angle (:class:`AngleMap`)
-``tracking``   order-tracked complex amplitudes at exact orders
-``binning``    speed bins shared by spectra and metrics
-``spectra``    power and order spectra vs rpm (waterfalls), order spectrum of a record
-``averaging``  one family's cycle plan: block, sliding and quadratic averages
-``tsa``        time-synchronous averaging residuals: one family, joint or cascade
-``families``   exact cycle orders, excitation families, structural modes
-``metrics``    family attenuation, mode-band change, removal metrics
-``stage``      what the workflow calls (spectra, tsa, removal_tests stages)
-=============  ==========================================================================
+=================  ======================================================================
+``checks``         argument and data checks shared by all (DataError / PulseError)
+``tacho``          tachometer pulses: detection, checks and repair, shaft angle and speed
+``angle``          angular resampling to and from constant shaft angle (:class:`AngleMap`)
+``tracking``       order-tracked complex amplitudes at exact orders
+``binning``        speed bins shared by spectra and metrics
+``spectra``        power and order spectra vs rpm (waterfalls), order spectrum of a record
+``averaging``      one family's cycle plan: block, sliding and quadratic averages
+``tsa``            time-synchronous averaging residuals: one family
+``joint``          several families at once: backfitting or cascade
+``least_change``   the least-changing pass of a backfitting, and when its passes diverge
+``pieces``         a removal of an hour-long record in overlapping pieces (bounded memory)
+``families``       exact cycle orders, excitation families, structural modes
+``metrics``        family attenuation, mode-band change, removal metrics
+``stage``          what the workflow calls (spectra, tsa, removal_tests stages)
+=================  ======================================================================
 
 Removal beyond TSA (issue 16):
 
 ==================  =====================================================================
 ``removal_inputs``  checked inputs shared by the methods below
 ``vkf``             Vold-Kalman order tracking filter, second generation, joint orders
+``vkf_report``      what a VKF run tells: crowded orders, one warning for all its pieces
 ``amplitude_basis`` the regression's amplitude basis in time, and its fit's reach
 ``regression``      angle-domain least-squares regression, slowly varying amplitudes
                     (and the swept modal response of orders crossing a mode)

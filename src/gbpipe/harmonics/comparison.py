@@ -78,8 +78,7 @@ def method_params(removal_cfg: Mapping[str, Any], method: str, families: Familie
         # Carriers only in the last (coarsest) knot group: an earlier group's carriers
         # would meet the later groups' lines unfitted (residual_regression, ``modes``)
         spacing = params.get("knot_spacing")
-        last = (family_groups(families, spacing)[-1][1] if isinstance(spacing, Mapping)
-                else families)
+        last = family_groups(families, spacing)[-1][1] if isinstance(spacing, Mapping) else families
         params["modal_families"] = [f for f in last if f != "motor"]
     return params
 
@@ -315,12 +314,13 @@ def method_residuals(record: xr.Dataset | Sequence[xr.Dataset], names: Sequence[
                                                 else angle_record))
 
     def remove(x: np.ndarray, fs: float, pulses: np.ndarray, ppr: int) -> np.ndarray:
-        return remove_harmonics(method, x, fs, pulses, families, ppr, overwrite_x=True, **run)
+        return remove_harmonics(  # (x: split_residuals' own array, which it may reuse)
+            method, x, fs, pulses, families, ppr, overwrite_x=True, **run)
 
     lowest, what = (min(float(o) for orders in families.values() for o in orders),
                     f"{method} removal of {', '.join(families)}")
     values = first.sizes["time"] * (1 if first is record else len(record))  # per channel
-    groups = channel_groups(method, names, values)  # (overwrite_x: x is split_residuals')
+    groups = channel_groups(method, names, values)  # MULTICHANNEL ones share regressors
     progress = Progress(log, f"{what}: {len(names)} signals", len(groups))
     out: list[xr.Dataset] = []
     for k, group in enumerate(groups, 1):

@@ -90,7 +90,8 @@ def by_pieces(x: np.ndarray, fs: float, pulse_times: np.ndarray, margin: int,
         Samples added on each side of a piece (:func:`block_margin`).
     remove : callable
         ``remove(x_piece, pulses_in_piece, t0)``: the residual of a piece whose first
-        sample is at ``t0`` [s], of its shape.
+        sample is at ``t0`` [s], of its shape, in a new array (``x_piece`` is a view of
+        ``x``, whose margins the neighbouring pieces read too: never written).
     piece : int
         Samples kept from each piece (at least four margins).
     t0 : float
@@ -108,6 +109,8 @@ def by_pieces(x: np.ndarray, fs: float, pulse_times: np.ndarray, margin: int,
     """
     piece = max(int(piece), 4 * margin)
     n = x.shape[0]
+    if out is not None and out.shape != x.shape:
+        raise ValueError(f"out has shape {out.shape}; the record, {x.shape}")
     if n <= piece + 2 * margin:
         if out is None:
             return remove(x, pulse_times, t0)

@@ -344,9 +344,9 @@ def split_residuals(record: xr.Dataset | Sequence[xr.Dataset], names: Sequence[s
         # The array is our own (the residual may replace it) and the low part is filtered
         # again, not kept: an hour's channels are held once, not three times (3.45 GB)
         stacked = np.asarray(remove_fn(stacked if several else stacked[0], fs, pulses, ppr,
-                                       ).reshape(stacked.shape))
+                                       )).reshape(stacked.shape)
         for k, j in np.ndindex(len(records), len(names) if sos is not None else 0):
-            stacked[k, :, j] += signal.sosfiltfilt(sos, signals[k][j].values)
+            stacked[k, :, j] += signal.sosfiltfilt(sos, np.asarray(signals[k][j].values, float))
     out = []
     for r, sig, x in zip(records, signals, stacked, strict=True):
         ds = xr.Dataset(coords={"time": ("time", r.time.values,

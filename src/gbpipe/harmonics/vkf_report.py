@@ -68,16 +68,18 @@ class Passes(NamedTuple):
     returned_least: bool
 
 
-def _span(values: Sequence[float], fmt: str) -> str:
-    """``"a"`` or ``"a-b"``: the range of ``values``, each formatted with ``fmt``."""
+def _span(values: Sequence[float], fmt: str, noun: str = "") -> str:
+    """The range of ``values``, each formatted with ``fmt``: ``"pass 5"`` or ``"passes 5 to
+    8"`` with the ``noun`` "pass", ``"0.0025"`` or ``"between 0.0025 and 0.0041"`` without."""
     low, high = format(min(values), fmt), format(max(values), fmt)
-    return low if low == high else f"{low}-{high}"
+    if low == high:
+        return f"{noun} {low}".strip()
+    return f"{noun}es {low} to {high}" if noun else f"between {low} and {high}"
 
 
 def passes_warning(outcomes: Sequence[Passes | None], tol: float, max_iter: int,
                    crowd: str) -> str | None:
-    """One warning for the pieces of a record whose passes missed ``tol`` (None: every
-    piece reached it).
+    """One warning for the pieces of a record whose passes missed ``tol``.
 
     Parameters
     ----------
@@ -89,6 +91,13 @@ def passes_warning(outcomes: Sequence[Passes | None], tol: float, max_iter: int,
         Passes allowed.
     crowd : str
         The crowded orders (:func:`crowded_orders`, joined), or "" for none.
+
+    Returns
+    -------
+    str or None
+        What the pieces reached (the range over them), what was returned, and the advice:
+        more passes, or, where orders crowd, a narrower bandwidth or the regression (more
+        passes make those diverge further). None where every piece reached ``tol``.
     """
     missed = [o for o in outcomes if o is not None]
     if not missed:
@@ -98,21 +107,22 @@ def passes_warning(outcomes: Sequence[Passes | None], tol: float, max_iter: int,
     grew = [o for o in missed if o.diverged]
     if grew:
         parts.append(
-            f"diverges{'' if len(grew) == len(missed) else f' in {len(grew)}'}: the residual "
-            f"change grew from {_span([o.least for o in grew], '.2g')} of the harmonics found "
-            f"(pass {_span([o.at for o in grew], 'd')}) to {_span([o.change for o in grew], '.2g')}"
-            f" (pass {_span([o.done for o in grew], 'd')})")
+            f"diverges{'' if len(grew) == len(missed) else f' in {len(grew)} of them'}: the "
+            f"residual change grew from {_span([o.least for o in grew], '.2g')} of the "
+            f"harmonics found ({_span([o.at for o in grew], 'd', 'pass')}) to "
+            f"{_span([o.change for o in grew], '.2g')} "
+            f"({_span([o.done for o in grew], 'd', 'pass')})")
     slow = [o for o in missed if not o.diverged]
     if slow:
         parts.append(f"stopped after max_iter = {max_iter} passes"
-                     f"{'' if len(slow) == len(missed) else f' in {len(slow)}'} with the "
-                     f"residual still changing by {_span([o.change for o in slow], '.2g')} of "
-                     "the harmonics found")
+                     f"{'' if len(slow) == len(missed) else f' in {len(slow)} of them'} with "
+                     f"the residual still changing by {_span([o.change for o in slow], '.2g')}"
+                     " of the harmonics found")
     least = [o for o in missed if o.returned_least]
     returned = ("" if not least else f", pass {least[0].at}'s output is returned"
                 if len(outcomes) == 1 else
                 ", each piece's least-changed pass is returned" if len(least) == len(outcomes)
-                else f", the least-changed pass is returned in {len(least)}")
+                else f", the least-changed pass is returned in {len(least)} of them")
     advice = (f"orders within about a bandwidth of each other or of 0 Hz ({crowd}) need a "
               "narrower bandwidth (removal.vkf.bandwidth; decimate the record first if "
               "float64 refuses it) or the regression method" if crowd else
