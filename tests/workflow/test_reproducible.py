@@ -1,7 +1,7 @@
 """The same config gives the same files: stages run again on the inputs of a CI run
-write NetCDF files equal to the first run's in every variable, coordinate and attribute
-(but the ``created``/``history`` provenance, which says when), and the same captions. Wall
-time and memory belong to the job logs and benchmarks, never to results."""
+write NetCDF files equal to the first run's byte for byte (no clock time in them, nor in
+any variable, coordinate or attribute), and the same captions. Wall time and memory belong
+to the job logs and benchmarks, never to results."""
 
 from __future__ import annotations
 
@@ -12,12 +12,9 @@ import xarray as xr
 
 from tests.workflow.runs import snakemake
 
-#: When a file was written: the only attributes allowed to differ between two runs.
-WHEN = ("created", "history")
 #: The stages run again (their inputs kept), one group after the other: the harmonic-removal
 #: comparison, which timed its methods into its results, with its caption and the
-#: kinematics; then the model. (Not in one group: a rerun model file differs in its
-#: `created` bytes, hence in its SHA-256 in the removal files' `source_files`.)
+#: kinematics; then the model (whose files the removal files name with their SHA-256).
 AGAIN = (("results/kinematics/frequencies.nc", "results/removal/*.nc",
           "results/report/fig_removal_tradeoff.rst"),
          ("results/model/gearbox.nc", "results/model/bench.nc", "results/model/truth.nc"))
@@ -25,8 +22,7 @@ AGAIN = (("results/kinematics/frequencies.nc", "results/removal/*.nc",
 
 def _same(a: xr.Dataset, b: xr.Dataset, name: str) -> None:
     # numpy's equality: NaN equals NaN (a _FillValue of NaN is the same in both files)
-    np.testing.assert_equal({k: v for k, v in b.attrs.items() if k not in WHEN},
-                            {k: v for k, v in a.attrs.items() if k not in WHEN}, name)
+    np.testing.assert_equal(b.attrs, a.attrs, name)
     assert list(a.variables) == list(b.variables), name
     for var in a.variables:
         np.testing.assert_equal(b[var].attrs, a[var].attrs, f"{name} {var}")
@@ -51,5 +47,6 @@ def test_the_same_config_gives_the_same_files(ci_run, tmp_path):
             with (xr.open_dataset(ci_run / f, decode_cf=False) as a,
                   xr.open_dataset(again / f, decode_cf=False) as b):
                 _same(a.load(), b.load(), str(f))
+            assert (again / f).read_bytes() == (ci_run / f).read_bytes(), f
             checked += 1
     assert checked >= 8   # kinematics, five removal methods, three model files

@@ -4,7 +4,7 @@ Every stage writes through :func:`write`, which
 
 * refuses a variable or coordinate without ``units`` and ``long_name``;
 * adds the provenance attributes of the data contract (``gbpipe_version``,
-  ``config_sha256`` of the stage's config slice, ``created``, ``stage``, wildcard values)
+  ``config_sha256`` of the stage's config slice, ``stage``, wildcard values; no clock time)
   and the CF-1.11 globals (``Conventions``, ``title``, ``institution``, ``source``,
   ``history``, ``references``);
 * stores the relative ``time`` axis as plain seconds on the dimension :data:`TIME_DIM`,
