@@ -10,7 +10,7 @@ import xarray as xr
 
 from gbpipe.errors import DataError
 from gbpipe.identify.orders import row_order, stabilization_orders
-from gbpipe.identify.windows import band_energy, excitation_onset, holdout_window
+from gbpipe.identify.windows import band_energy, excitation_onset, holdout_window, window_sums
 
 FS = 1000.0
 BAND = (5.0, 300.0)
@@ -134,3 +134,14 @@ def test_measured_record_takes_a_validation_window_and_a_group():
         parse({**base, "validation": {"start": 20, "end": 12}}, "r3")
     with pytest.raises(ConfigError, match=r"measured.r4.validation.*needs both"):
         parse({**base, "validation": {"start": 2}}, "r4")
+
+
+@pytest.mark.parametrize("n", [1, 7, 5000, 20_000])
+def test_window_sums_are_numpys_convolution_with_the_window(n):
+    # the running-sum form against the direct one (np.convolve, n per sample): every full
+    # window, within the running sum's rounding (len / n eps of a window's sum)
+    x = np.random.default_rng(n).random(20_000) ** 4
+    direct = np.convolve(x, np.ones(n), mode="valid")
+    got = window_sums(x, n)
+    assert got.shape == direct.shape == (x.size - n + 1,)
+    np.testing.assert_allclose(got, direct, rtol=0, atol=1e-12 * direct.max())

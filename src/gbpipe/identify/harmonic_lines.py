@@ -29,6 +29,7 @@ from scipy.integrate import cumulative_trapezoid
 
 from gbpipe.errors import ConfigError, DataError
 from gbpipe.harmonics import check_pulse_times, shaft_angle
+from gbpipe.identify.windows import window_sums
 
 __all__ = ["HarmonicBands", "shaft_frequency_range", "speed_frequency_range", "harmonic_bands",
            "record_harmonic_bands", "reference_angle", "order_one", "label_poles", "KINDS"]
@@ -133,8 +134,8 @@ def speed_frequency_range(speed: np.ndarray, fs: float, shaft_order: float,
     if s.size < n or n < 1:
         raise DataError("speed", f"{s.size} samples are fewer than one Welch segment "
                         f"({n}): record a longer run")
-    mean = np.convolve(s, np.ones(n) / n, mode="valid") / (2 * np.pi * float(shaft_order))
-    signed = np.convolve(np.asarray(speed, float), np.ones(n) / n, mode="valid")
+    mean = window_sums(s, n) / n / (2 * np.pi * float(shaft_order))
+    signed = window_sums(speed, n) / n
     if (np.any(signed > 0) and np.any(signed < 0)) or not np.all(mean > 0):
         raise DataError("speed", "the shaft stands or reverses within the record, so no "
                         "order line has a frequency: analyse a run at speed")

@@ -27,7 +27,8 @@ from typing import NamedTuple
 import numpy as np
 from scipy import signal
 
-__all__ = ["band_energy", "excitation_onset", "Holdout", "holdout_window", "fit_pieces"]
+__all__ = ["band_energy", "window_sums", "excitation_onset", "Holdout", "holdout_window",
+           "fit_pieces"]
 
 #: A running window whose band power is below this share of the record's strongest
 #: window (-20 dB) is not excited: a burst and its quiet neighbours differ by much more,
@@ -48,6 +49,16 @@ def band_energy(x: np.ndarray, fs: float, band: tuple[float, float]) -> np.ndarr
     p = xb**2
     tot = p.sum(axis=0)
     return (p / np.where(tot > 0, tot, 1.0)).sum(axis=1) / p.shape[1]
+
+
+def window_sums(x: np.ndarray, n: int) -> np.ndarray:
+    """Sum of every ``n`` consecutive samples of ``x`` (each full window, ``len(x) - n + 1``
+    of them), in the unit of ``x``: from the running sum, O(len(x)), where a convolution
+    with the window costs ``n`` per sample (13 s of CPU for 1-s windows on an hour at
+    5 kHz; the difference of two running sums rounds to about ``len(x) / n`` eps of the
+    window's sum, 4e-12 there)."""
+    cum = np.concatenate([[0.0], np.cumsum(np.asarray(x, float))])
+    return cum[n:] - cum[:-n]
 
 
 def excitation_onset(x: np.ndarray, fs: float, band: tuple[float, float],
@@ -72,7 +83,7 @@ def excitation_onset(x: np.ndarray, fs: float, band: tuple[float, float],
     n_w = max(1, int(round(window_s * fs)))
     if e.size < n_w:
         return 0.0
-    power = np.convolve(e, np.ones(n_w), mode="valid")
+    power = window_sums(e, n_w)
     return float(np.argmax(power >= _QUIET * power.max()) / fs)
 
 
