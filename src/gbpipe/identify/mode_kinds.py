@@ -68,7 +68,7 @@ from gbpipe.identify.band_signal import FILTER_ORDER, band_envelope, line_share
 from gbpipe.identify.harmonic_lines import HarmonicBands, order_one
 from gbpipe.identify.peak_drift import peak_drift
 
-__all__ = ["KINDS", "ALPHA", "Evidence", "kurtosis_statistic",
+__all__ = ["KINDS", "ALPHA", "DRAWN_SAMPLES", "Evidence", "kurtosis_statistic",
            "kurtosis_limit", "resolvable_damping", "cluster_evidence",
            "on_line", "line_width", "LINE_SHARE", "Cluster", "PairingData", "record_evidence"]
 
@@ -80,6 +80,10 @@ ALPHA = 1e-3
 #: Monte Carlo draws of the statistic under the mode hypothesis (its mean and spread of
 #: the log; the log-normal tail is taken, see :func:`kurtosis_limit`).
 _DRAWS = 1000
+#: Band-signal samples a draw holds at most [1]: a longer band's draws hold this many (and
+#: at least 100 of the hypothesis' correlation times), the spread of their log statistic
+#: scaled by sqrt(drawn / n). Its cost then grows as the bands, not as n log n each.
+DRAWN_SAMPLES = 1 << 16
 #: Share of a cluster's band power [1] from which the order lines measured in it, not the
 #: mode they cross, are what the cluster fits (the bound of the share is compared).
 LINE_SHARE = 0.5
@@ -137,19 +141,25 @@ def kurtosis_limit(f0: float, damping: float, half_width: float, fs_z: float, n:
     the mode's and the filter's spectrum; the limit is ``exp(mean - z_alpha sd)`` of the
     log statistic (the sample kurtosis is bounded below by 1 and skewed: its log is
     nearer normal). The fewer independent samples the band holds (light damping, short
-    record), the wider the spread and the lower the limit.
+    record), the wider the spread and the lower the limit. A band of more than
+    :data:`DRAWN_SAMPLES` is drawn that long, or 100 correlation times ``1 / (2 pi
+    damping f0)`` if longer, its spread scaled by ``sqrt(drawn / n)``: many correlation
+    times long, the log statistic is a mean of a mixing series, whose spread falls as
+    ``1 / sqrt(n)`` (its mean is that of ``n`` samples to ``O(1 / drawn)``).
     """
-    nu = np.fft.fftfreq(n, 1.0 / fs_z)
+    drawn = min(n, max(DRAWN_SAMPLES, int(np.ceil(100 * fs_z / (2 * np.pi * damping * f0)))))
+    nu = np.fft.fftfreq(drawn, 1.0 / fs_z)
     f = f0 + nu
     mode = 1.0 / np.abs(f0 ** 2 - f ** 2 + 2j * damping * f0 * f) ** 2
     low = 1.0 / (1.0 + (nu / half_width) ** (2 * FILTER_ORDER)) ** 2
     shape = np.sqrt(mode * low)
     logs = []
     for _ in range(0, _DRAWS, 250):  # batches bound the memory of long bands
-        w = rng.standard_normal((250, n)) + 1j * rng.standard_normal((250, n))
+        w = rng.standard_normal((250, drawn)) + 1j * rng.standard_normal((250, drawn))
         logs.append(np.log(kurtosis_statistic(np.fft.ifft(w * shape, axis=1))))
     lg = np.concatenate(logs)
-    return float(np.exp(lg.mean() - stats.norm.isf(alpha) * lg.std(ddof=1)))
+    spread = lg.std(ddof=1) * (np.sqrt(drawn / n) if drawn < n else 1.0)
+    return float(np.exp(lg.mean() - stats.norm.isf(alpha) * spread))
 
 
 def resolvable_damping(frequency_hz: float, duration_s: float) -> float:
