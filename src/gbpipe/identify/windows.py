@@ -132,7 +132,7 @@ def holdout_window(energy: np.ndarray, share: float, power_min: float, fs: float
         return Holdout(a, b, float((cum[b] - cum[a]) / total),
                        f"measured.<record>.validation: {user[0]:g}-{user[1]:g} s")
     n_val = int(round(share * n))
-    held = (cum[n_val:] - cum[:n - n_val + 1]) / total  # window starting at each sample
+    held = window_sums(energy, n_val) / total  # window starting at each sample
     ok = np.flatnonzero(held >= power_min * n_val / n)
     if ok.size:
         k = int(ok[-1])
