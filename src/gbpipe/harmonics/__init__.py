@@ -22,22 +22,24 @@ Modules, each one concept, lowest first:
 
 Removal beyond TSA (issue 16):
 
-==================  =====================================================================
-``removal_inputs``  checked inputs shared by the methods below
-``vkf``             Vold-Kalman order tracking filter, second generation, joint orders
-``vkf_report``      what a VKF run tells: crowded orders, one warning for all its pieces
-``amplitude_basis`` the regression's amplitude basis in time, and its fit's reach
-``regression``      angle-domain least-squares regression, slowly varying amplitudes
-                    (and the swept modal response of orders crossing a mode)
-``crossings``       order/mode crossings: half-power bands, swept modal carriers, marks
-``shaft_angles``    the second line-carrying shaft's angle: twist from the two speeds
-``drs``             discrete/random separation in the angle domain
-``cepstrum``        cepstral editing: comb liftering of the families' rahmonics
-``removal``         every method behind one signature (``METHODS``: tsa, vkf, ...)
-``separation``      exact separation metric: attenuation, distortion vs random-only
-``comparison``      what the workflow calls: every method on the sweep, scored
-                    (``removal``, ``removal_table``), and on the tests (``removal_tests``)
-==================  =====================================================================
+=====================  =====================================================================
+``removal_inputs``     checked inputs shared by the methods below
+``vkf``                Vold-Kalman order tracking filter, second generation, joint orders
+``vkf_report``         what a VKF run tells: crowded orders, one warning for all its pieces
+``amplitude_basis``    the regression's amplitude basis in time, and its fit's reach
+``regression``         angle-domain least-squares regression, slowly varying amplitudes
+                       (and the swept modal response of orders crossing a mode)
+``regression_design``  the regression's blocks: cuts at the knots, local design
+                       matrices, the modal carriers' border columns
+``crossings``          order/mode crossings: half-power bands, swept modal carriers, marks
+``shaft_angles``       the second line-carrying shaft's angle: twist from the two speeds
+``drs``                discrete/random separation in the angle domain
+``cepstrum``           cepstral editing: comb liftering of the families' rahmonics
+``removal``            every method behind one signature (``METHODS``: tsa, vkf, ...)
+``separation``         exact separation metric: attenuation, distortion vs random-only
+``comparison``         what the workflow calls: every method on the sweep, scored
+                       (``removal``, ``removal_table``), and on the tests (``removal_tests``)
+=====================  =====================================================================
 
 Imports only numpy, scipy, xarray and gbpipe's kinematics, units, errors and progress
 lines, and (in ``stage`` and ``comparison``) the record contract of :mod:`gbpipe.io` (the

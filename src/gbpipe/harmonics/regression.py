@@ -15,9 +15,10 @@ normal equations are banded) or Legendre polynomials over the record (global, de
 The normal equations are accumulated block by block (blocks of samples inside one knot
 interval: each touches only ``degree + 1`` spline functions), into lower banded storage,
 and solved by banded Cholesky: memory linear in the record, independent of its length
-for the matrix. Estimating all families at once, unlike a cascade, leaves no family's
-leakage in another's estimate; orders closer than about ``1 / (revolutions per knot
-interval)`` are told apart only through the joint fit, at the cost of noise gain.
+for the matrix (the blocks' design: :mod:`gbpipe.harmonics.regression_design`).
+Estimating all families at once, unlike a cascade, leaves no family's leakage in
+another's estimate; orders closer than about ``1 / (revolutions per knot interval)`` are
+told apart only through the joint fit, at the cost of noise gain.
 
 Where an order crosses a structural mode, its line is the excitation times the mode's
 FRF along the order's frequency; with ``modes`` the regressors also hold that swept
@@ -41,7 +42,7 @@ residual replaces the record (held once). A Legendre basis is global: fitted who
 
 from __future__ import annotations
 
-from collections.abc import Collection, Iterator, Mapping, Sequence
+from collections.abc import Collection, Mapping, Sequence
 from typing import Literal
 
 import numpy as np
@@ -49,8 +50,15 @@ from scipy.linalg import cho_solve_banded, cholesky_banded
 
 from gbpipe.harmonics.amplitude_basis import AmplitudeBasis
 from gbpipe.harmonics.checks import as_count, as_positive, as_signal
-from gbpipe.harmonics.crossings import as_modes, crossing_pairs, modal_carriers
+from gbpipe.harmonics.crossings import as_modes, crossing_pairs
 from gbpipe.harmonics.pieces import PIECE, by_pieces, slowest_revolution
+from gbpipe.harmonics.regression_design import (
+    block_cuts,
+    border_design,
+    carrier_blocks,
+    line_phases,
+    local_design,
+)
 from gbpipe.harmonics.removal_inputs import Families, removal_inputs
 from gbpipe.harmonics.shaft_angles import checked_twist, second_lines
 from gbpipe.harmonics.tacho import AngleMethod
@@ -67,49 +75,6 @@ BORDER_RIDGE = 1e-6
 #: Bytes of modal-carrier columns kept from the accumulation for the subtraction pass
 #: (the carriers' exponentials and recursions are about half of a regression's time)
 BORDER_CACHE_BYTES = 128 * 2**20
-
-
-def _blocks(times: np.ndarray, breaks: np.ndarray, block: int) -> np.ndarray:
-    """Sample cuts: every ``block`` samples and at every break, so that no block
-    straddles a knot."""
-    cuts = np.union1d(np.arange(0, times.size, block), np.searchsorted(times, breaks))
-    return np.append(cuts, times.size)
-
-
-def _local_design(basis: AmplitudeBasis, t: np.ndarray, phases: np.ndarray,
-                  ) -> tuple[np.ndarray, int]:
-    """Design matrix of one block, columns (function j; slow mean, then cos/sin of each
-    order), and its first column in the global unknown vector."""
-    vals, first = basis.values(t)
-    trig = np.empty((t.size, 2 * phases.shape[1] + 1))
-    trig[:, 0] = 1.0
-    trig[:, 1::2] = np.cos(phases)
-    trig[:, 2::2] = np.sin(phases)
-    design = (vals[:, :, None] * trig[:, None, :]).reshape(t.size, -1)
-    return design, first * trig.shape[1]
-
-
-def _border_design(carriers: np.ndarray) -> np.ndarray:
-    """Border columns of one block: real and imaginary part of each modal carrier."""
-    return np.stack([carriers.real, carriers.imag], axis=2).reshape(carriers.shape[0], -1)
-
-
-def _phases(angles: Sequence[np.ndarray], lines: Sequence[tuple[int, np.ndarray]],
-            a: int, b: int) -> np.ndarray:
-    """Phases [rad] of every line on samples ``a:b``: each group of orders on its
-    shaft's angle, shape (b - a, lines)."""
-    return np.concatenate([np.outer(angles[k][a:b], ords) for k, ords in lines], axis=1)
-
-
-def _carriers(angles: Sequence[np.ndarray], fs: float, modes: np.ndarray,
-              carriers_of: Sequence[tuple[int, np.ndarray, Sequence[tuple[int, int]]]],
-              cuts: np.ndarray) -> Iterator[np.ndarray]:
-    """The modal carriers of every angle's (order, mode) pairs, block by block, side by
-    side (each on the angle of the shaft its order is locked to)."""
-    gens = [modal_carriers(angles[k], fs, ords, modes, pairs, cuts)
-            for k, ords, pairs in carriers_of if pairs]
-    for _ in range(len(cuts) - 1):
-        yield np.concatenate([next(g) for g in gens], axis=1) if gens else np.empty((0, 0))
 
 
 def regression_margin(knot_spacing: float | Mapping[str, float], degree: int,
@@ -347,20 +312,21 @@ def residual_regression(x: np.ndarray, fs: float, pulse_times: np.ndarray,
     n_border = 2 * sum(len(p) for _, _, p in carriers_of)
     cross_nb, gram_b = np.zeros((n_unknown, n_border)), np.zeros((n_border, n_border))
     rhs_b = np.zeros((xs.shape[0], n_border, xs.shape[2]))
-    cuts = _blocks(times, amp.breaks, block)
+    cuts = block_cuts(times, amp.breaks, block)
     # the lower triangle of a local normal matrix, entry (i, j) -> lower band storage
     # (i - j, first column + j), in one indexed addition per block
-    (low_i, low_j), carriers = np.tril_indices(width), _carriers(angles, fs, m, carriers_of, cuts)
+    low_i, low_j = np.tril_indices(width)
     band_row = low_i - low_j
+    carriers = carrier_blocks(angles, fs, m, carriers_of, cuts)
     kept = [] if n_border * times.size * 8 <= BORDER_CACHE_BYTES else None
     for a, b in zip(cuts[:-1], cuts[1:], strict=True):  # blocks: memory per block only
-        design, c0 = _local_design(amp, times[a:b], _phases(angles, lines, a, b))
+        design, c0 = local_design(amp, times[a:b], line_phases(angles, lines, a, b))
         gram = design.T @ design
         ab[band_row, c0 + low_j] += gram[low_i, low_j]
         for r in range(xs.shape[0]):  # each record's products as in a call of its own
             rhs[r, c0:c0 + width] += design.T @ y[r, a:b]
         if n_border:
-            border = _border_design(next(carriers))
+            border = border_design(next(carriers))
             if kept is not None:
                 kept.append(border)
             cross_nb[c0:c0 + width] += design.T @ border
@@ -387,11 +353,12 @@ def residual_regression(x: np.ndarray, fs: float, pulse_times: np.ndarray,
             coef -= a_inv_c @ coef_b
     for coef in coefs:
         coef[::per_function] = 0.0  # the slow mean is fitted, never subtracted
-    seg = (out := xs if overwrite_x else xs.copy())[:, rec.span]
+    out = xs if overwrite_x else xs.copy()
+    seg = out[:, rec.span]
     borders = iter(kept) if kept is not None else map(  # or again, from the start
-        _border_design, _carriers(angles, fs, m, carriers_of, cuts))
+        border_design, carrier_blocks(angles, fs, m, carriers_of, cuts))
     for a, b in zip(cuts[:-1], cuts[1:], strict=True):
-        design, c0 = _local_design(amp, times[a:b], _phases(angles, lines, a, b))
+        design, c0 = local_design(amp, times[a:b], line_phases(angles, lines, a, b))
         border = next(borders) if n_border else None
         for r, (coef, coef_b) in enumerate(zip(coefs, coefs_b, strict=True)):
             seg[r, a:b] -= design @ coef[c0:c0 + width]
