@@ -53,7 +53,7 @@ def line_phases(angles: Sequence[np.ndarray], lines: Sequence[tuple[int, np.ndar
     lines : sequence of (int, ndarray)
         Per group: the index of its angle in ``angles`` and its orders [-].
     a, b : int
-        The samples.
+        First and one-past-last sample of the block.
 
     Returns
     -------
@@ -108,7 +108,7 @@ def carrier_blocks(angles: Sequence[np.ndarray], fs: float, modes: np.ndarray,
         Frequency [Hz] and damping ratio [-] of each mode.
     carriers_of : sequence of (int, ndarray, sequence of (int, int))
         Per angle: its index in ``angles``, its orders, and the (order, mode) index pairs
-        that get a carrier (:func:`gbpipe.harmonics.crossing_pairs`).
+        that get a carrier (:func:`gbpipe.harmonics.crossings.crossing_pairs`).
     cuts : ndarray of int
         :func:`block_cuts`.
 
@@ -116,7 +116,7 @@ def carrier_blocks(angles: Sequence[np.ndarray], fs: float, modes: np.ndarray,
     ------
     ndarray, complex, shape (block samples, pairs)
         Every angle's carriers side by side (each on the angle of the shaft its order is
-        locked to); an empty array where no pair has one.
+        locked to); a real ``(0, 0)`` array for every block where no angle has a pair.
     """
     gens = [modal_carriers(angles[k], fs, ords, modes, pairs, cuts)
             for k, ords, pairs in carriers_of if pairs]
@@ -135,5 +135,6 @@ def border_design(carriers: np.ndarray) -> np.ndarray:
     Returns
     -------
     ndarray, shape (n, 2 pairs)
+        Per carrier, its real part, then its imaginary part.
     """
     return np.stack([carriers.real, carriers.imag], axis=2).reshape(carriers.shape[0], -1)
