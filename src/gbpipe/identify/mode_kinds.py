@@ -158,7 +158,7 @@ def kurtosis_limit(f0: float, damping: float, half_width: float, fs_z: float, n:
         w = rng.standard_normal((250, drawn)) + 1j * rng.standard_normal((250, drawn))
         logs.append(np.log(kurtosis_statistic(np.fft.ifft(w * shape, axis=1))))
     lg = np.concatenate(logs)
-    spread = lg.std(ddof=1) * (np.sqrt(drawn / n) if drawn < n else 1.0)
+    spread = lg.std(ddof=1) * np.sqrt(drawn / n)  # (1 exactly where the band is drawn whole)
     return float(np.exp(lg.mean() - stats.norm.isf(alpha) * spread))
 
 
