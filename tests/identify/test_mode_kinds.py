@@ -12,7 +12,8 @@ from scipy import signal, stats
 
 from gbpipe.config import load, merge
 from gbpipe.errors import DataError
-from gbpipe.identify import mode_kinds, modes_table_rows, record_modes
+from gbpipe.identify import band_kurtosis, mode_kinds, modes_table_rows, record_modes
+from gbpipe.identify.band_kurtosis import kurtosis_limit, kurtosis_statistic
 from gbpipe.identify.band_signal import band_envelope, line_share
 from gbpipe.identify.harmonic_lines import (
     HarmonicBands,
@@ -24,25 +25,18 @@ from gbpipe.identify.mode_kinds import (
     ALPHA,
     LINE_SHARE,
     cluster_evidence,
-    kurtosis_limit,
-    kurtosis_statistic,
     resolvable_damping,
 )
 from gbpipe.identify.peak_drift import peak_drift
 from tests.conftest import CONFIG
+from tests.identify.sdof import sdof_response
 
 FS = 1000.0
 NO_LINES = HarmonicBands(np.array([]), np.array([]), np.array([]), (np.nan, np.nan))
 
 
 def _sdof(f0: float, zeta: float, n: int, rng: np.random.Generator) -> np.ndarray:
-    # scipy's exact discretisation of a mode driven by white noise (not gbpipe's draw)
-    wn = 2 * np.pi * f0
-    sysd = signal.cont2discrete((np.array([[0, 1], [-wn ** 2, -2 * zeta * wn]]),
-                                 np.array([[0], [1.0]]), np.array([[0, 1.0]]),
-                                 np.zeros((1, 1))), 1 / FS)
-    b, a = signal.ss2tf(*sysd[:4])
-    return signal.lfilter(b[0], a, rng.standard_normal(n))
+    return sdof_response(f0, zeta, n, rng, FS)
 
 
 def test_band_kurtosis_of_a_sine_in_noise_is_the_closed_form():
@@ -288,6 +282,37 @@ def test_order_one_is_the_line_whose_multiples_hold_the_others():
     assert order_one(np.array([]), [], 0.5, 3).order.size == 0
 
 
+def test_a_mode_whose_band_holds_a_line_of_the_records_own_family_is_a_mode():
+    """No speed measured: the lines at orders 1, 2 and 7 of an 11 Hz shaft, and a 5 % mode
+    at 72 Hz whose band (twice its half-power band, 64.8-79.2 Hz) holds the order-7 line
+    at 77 Hz with ten times the mode's power there. Judged alone, the line makes the
+    mode's band a sinusoid's; once the record's own order-1 line places order 7 in it,
+    the cluster, whose half-power band (7.2 Hz) no line of the family can make, is judged
+    as with a measured speed: the mode."""
+    rng = np.random.default_rng(12)
+    n = int(40 * FS)
+    t = np.arange(n) / FS
+    mode = _sdof(72.0, 0.05, n, rng)
+    z, _ = band_envelope(mode, FS, 72.0, 7.2)
+    band = np.mean(np.abs(z) ** 2)  # the mode's band power (a sinusoid a: a^2 / 4)
+    y = mode + sum(2 * np.sqrt(10 * band) * np.sin(2 * np.pi * 11.0 * k * t + k)
+                   for k in (1, 2, 7))
+    y = y + 0.01 * y.std() * rng.standard_normal(n)
+    f = np.linspace(0, FS / 2, 1001)
+    data = [mode_kinds.PairingData(y[:, None], ["y"], FS, f, np.ones_like(f))]
+    clusters = [mode_kinds.Cluster(0, fk, 1e-4) for fk in (11.0, 22.0, 77.0)]
+    clusters.append(mode_kinds.Cluster(0, 72.0, 0.05))
+    alone = cluster_evidence(72.0, 0.05, [y], ["y"], FS, f, np.ones_like(f), 0.5, 0.6,
+                             NO_LINES, np.random.default_rng(0))
+    assert alone.kind == "harmonic" and "sinusoid" in alone.text  # the line holds it
+    ev, own = mode_kinds.record_evidence(clusters, data, NO_LINES, [7.0], 0.5, 0.6, 2,
+                                         400.0, 0)
+    assert own.shaft_hz[0] == pytest.approx(11.0, abs=0.1) and 7.0 in own.order
+    assert [e.kind for e in ev] == ["harmonic"] * 3 + ["mode"], [e.text for e in ev]
+    assert "the line in its band sets its PDF" in ev[3].text
+    assert "order line(s) 7: the PDF test does not decide" in ev[3].text
+
+
 # -- records with one known mode and known lines, with a tacho, a speed signal, or none --
 
 F0, ZETA, SHAFT = 40.0, 0.02, (10.95, 11.05)  # Hz, -, Hz (the shaft's slow drift)
@@ -433,7 +458,7 @@ def test_kurtosis_limit_of_a_long_band_from_shorter_draws(monkeypatch, f0, zeta,
     # scatters by about 0.08 of it); unscaled, it would lie 5 spreads lower
     n = 16384
     whole = kurtosis_limit(f0, zeta, w, fs_z, n, ALPHA, np.random.default_rng(5))
-    monkeypatch.setattr(mode_kinds, "DRAWN_SAMPLES", n // 8)
+    monkeypatch.setattr(band_kurtosis, "DRAWN_SAMPLES", n // 8)
     drawn = kurtosis_limit(f0, zeta, w, fs_z, n, ALPHA, np.random.default_rng(5))
     spread = (np.log(3.0) - np.log(whole)) / stats.norm.isf(ALPHA)  # (the mean: about 3)
     assert abs(np.log(drawn / whole)) < spread / 3, (drawn, whole, spread)

@@ -23,7 +23,8 @@ __all__ = ["FILTER_ORDER", "LOCKED_SPAN", "band_envelope", "LineShare", "line_sh
 FILTER_ORDER = 4
 
 
-def band_envelope(x: np.ndarray, fs: float, f0: float, half_width: float
+def band_envelope(x: np.ndarray, fs: float, f0: float, half_width: float,
+                  order: int = FILTER_ORDER, settled: bool = False
                   ) -> tuple[np.ndarray, float]:
     """The complex band signal of ``x`` around ``f0``: demodulated, low-passed, decimated.
 
@@ -37,6 +38,16 @@ def band_envelope(x: np.ndarray, fs: float, f0: float, half_width: float
         Centre of the band [Hz].
     half_width : float
         Half-width of the band [Hz] (the low-pass cut-off).
+    order : int
+        Order of the Butterworth low-pass (default :data:`FILTER_ORDER`).
+    settled : bool
+        Drop the low-pass's start-up at either end until it has decayed to a tenth of the
+        band signal's rms, whatever the power outside the band: ``tau ln(10 sqrt(P_x /
+        P_z))``, ``tau`` the time constant of the filter's slowest pole, ``P_x`` the
+        signal's power and ``P_z`` the band signal's over the record's middle half (a
+        strong line outside the band starts the filter as strongly as it drives the
+        input). Default: ``2 / cut``, about five time constants of the order-4
+        low-pass, enough where the band holds most of the power that passes.
 
     Returns
     -------
@@ -48,12 +59,18 @@ def band_envelope(x: np.ndarray, fs: float, f0: float, half_width: float
     """
     t = np.arange(x.size) / fs
     cut = min(half_width, 0.45 * fs)
-    sos = signal.butter(FILTER_ORDER, cut, fs=fs, output="sos")
-    z = signal.sosfiltfilt(sos, (x - x.mean()) * np.exp(-2j * np.pi * f0 * t))
+    sos = signal.butter(order, cut, fs=fs, output="sos")
+    xc = x - x.mean()
+    z = signal.sosfiltfilt(sos, xc * np.exp(-2j * np.pi * f0 * t))
     # the filter's start-up at either end (the record's first sample is a step from the
-    # padding): a burst that no mode makes, dropped; 2 / cut is about three time
-    # constants of the order-4 low-pass
-    edge = min(int(2.0 * fs / cut), x.size // 4)
+    # padding): a burst that no mode makes, dropped
+    if settled:
+        tau = 1.0 / (2.0 * np.pi * cut * np.sin(np.pi / (2 * order)))
+        inner = float(np.mean(np.abs(z[x.size // 4: 3 * x.size // 4]) ** 2))
+        ratio = float(np.mean(xc ** 2)) / inner if inner > 0 else 1.0
+        edge = min(int(tau * np.log(10.0 * np.sqrt(max(ratio, 1.0))) * fs), x.size // 4)
+    else:
+        edge = min(int(2.0 * fs / cut), x.size // 4)
     step = max(1, int(fs // (4.0 * cut)))
     return z[edge:x.size - edge:step], fs / step
 

@@ -24,11 +24,15 @@ A stable cluster of a stabilization diagram is one of three things:
       driven by random forces is Gaussian, kurtosis 3; a sinusoid's is 1.5. The
       statistic is the envelope form ``1.5 E|z|^4 / (E|z|^2)^2`` of the complex
       band signal ``z``, which equals the kurtosis of the real band signal for any
-      narrow-band process of uniform phase. Its limit (:func:`kurtosis_limit`) is the
-      ``ALPHA`` quantile of that statistic under the hypothesis "a mode of the cluster's
-      frequency and damping, driven by white noise, seen through the same band filter
-      over the same duration": the sampling spread for the band's number of independent
-      samples, drawn by Monte Carlo on the band's own correlation, not a tuned number;
+      narrow-band process of uniform phase. Its limit
+      (:func:`gbpipe.identify.band_kurtosis.kurtosis_limit`) is the ``ALPHA`` quantile
+      of that statistic under the hypothesis "a mode of the cluster's frequency and
+      damping, driven by white noise, seen through the same band filter over the same
+      duration": the sampling spread for the band's number of independent samples,
+      drawn by Monte Carlo on the band's own correlation, not a tuned number. A band
+      that reads as a sinusoid is read again through steeper filters: where it keeps
+      under half its power, a strong line outside the band held it
+      (:func:`gbpipe.identify.band_kurtosis.band_statistic`);
     * the **drift**: a line follows its shaft's speed, so the peak near the cluster
       moves with time along a monotonic track (a run-up, a slow drift: the line sweeps
       through the band and its PDF there is bursty, not a sinusoid's); a mode's peak
@@ -64,12 +68,12 @@ from typing import NamedTuple
 import numpy as np
 from scipy import stats
 
-from gbpipe.identify.band_signal import FILTER_ORDER, band_envelope, line_share
+from gbpipe.identify.band_kurtosis import band_statistic
+from gbpipe.identify.band_signal import line_share
 from gbpipe.identify.harmonic_lines import HarmonicBands, order_one
 from gbpipe.identify.peak_drift import peak_drift
 
-__all__ = ["KINDS", "ALPHA", "DRAWN_SAMPLES", "Evidence", "kurtosis_statistic",
-           "kurtosis_limit", "resolvable_damping", "cluster_evidence",
+__all__ = ["KINDS", "ALPHA", "Evidence", "resolvable_damping", "cluster_evidence",
            "on_line", "line_width", "LINE_SHARE", "Cluster", "PairingData", "record_evidence"]
 
 #: The kinds of a cluster.
@@ -77,13 +81,6 @@ KINDS = ("mode", "harmonic", "spurious")
 #: False-alarm probability of the PDF test: the chance that a true mode is called a line
 #: (per output; divided among the outputs tested, Bonferroni).
 ALPHA = 1e-3
-#: Monte Carlo draws of the statistic under the mode hypothesis (its mean and spread of
-#: the log; the log-normal tail is taken, see :func:`kurtosis_limit`).
-_DRAWS = 1000
-#: Band-signal samples a draw holds at most [1]: a longer band's draws hold this many (and
-#: at least 100 of the hypothesis' correlation times), the spread of their log statistic
-#: scaled by sqrt(drawn / n). Its cost then grows as the bands, not as n log n each.
-DRAWN_SAMPLES = 1 << 16
 #: Share of a cluster's band power [1] from which the order lines measured in it, not the
 #: mode they cross, are what the cluster fits (the bound of the share is compared).
 LINE_SHARE = 0.5
@@ -106,6 +103,8 @@ class Evidence(NamedTuple):
         Highest coherence of the estimate within the cluster's band [1].
     line_order : float
         Order of the line the cluster lies on [1]; NaN for none.
+    drifts : bool
+        Whether the peak near the cluster drifts with time (the drift test's line).
     """
 
     kind: str
@@ -114,52 +113,13 @@ class Evidence(NamedTuple):
     kurtosis_limit: float
     coherence: float
     line_order: float
+    drifts: bool = False
 
 
 def _half_width(frequency_hz: float, damping: float, resolution_hz: float) -> float:
     # the band around a cluster: its half-power band twice over, at least one frequency
     # line of the estimate on each side (a line cannot be located better than that)
     return max(resolution_hz, 2.0 * damping * frequency_hz)
-
-
-def kurtosis_statistic(z: np.ndarray) -> np.ndarray:
-    """``1.5 E|z|^4 / (E|z|^2)^2`` along the last axis: the kurtosis of the real band signal
-    (sinusoid 1.5, Gaussian 3) [1]."""
-    p = np.abs(z) ** 2
-    return 1.5 * np.mean(p ** 2, axis=-1) / np.mean(p, axis=-1) ** 2
-
-
-def kurtosis_limit(f0: float, damping: float, half_width: float, fs_z: float, n: int,
-                   alpha: float, rng: np.random.Generator) -> float:
-    """Lowest band kurtosis a mode of ``f0``, ``damping`` gives with probability 1 - alpha.
-
-    The hypothesis: the response of a single mode of natural frequency ``f0`` [Hz] and
-    damping ratio ``damping`` [1] to white noise, through the band filter of
-    :func:`gbpipe.identify.band_signal.band_envelope` (``half_width`` [Hz]), ``n``
-    samples at ``fs_z`` [Hz]. Its
-    complex band signal is drawn ``_DRAWS`` times by shaping white Gaussian noise with
-    the mode's and the filter's spectrum; the limit is ``exp(mean - z_alpha sd)`` of the
-    log statistic (the sample kurtosis is bounded below by 1 and skewed: its log is
-    nearer normal). The fewer independent samples the band holds (light damping, short
-    record), the wider the spread and the lower the limit. A band of more than
-    :data:`DRAWN_SAMPLES` is drawn that long, or 100 correlation times ``1 / (2 pi
-    damping f0)`` if longer, its spread scaled by ``sqrt(drawn / n)``: many correlation
-    times long, the log statistic is a mean of a mixing series, whose spread falls as
-    ``1 / sqrt(n)`` (its mean is that of ``n`` samples to ``O(1 / drawn)``).
-    """
-    drawn = min(n, max(DRAWN_SAMPLES, int(np.ceil(100 * fs_z / (2 * np.pi * damping * f0)))))
-    nu = np.fft.fftfreq(drawn, 1.0 / fs_z)
-    f = f0 + nu
-    mode = 1.0 / np.abs(f0 ** 2 - f ** 2 + 2j * damping * f0 * f) ** 2
-    low = 1.0 / (1.0 + (nu / half_width) ** (2 * FILTER_ORDER)) ** 2
-    shape = np.sqrt(mode * low)
-    logs = []
-    for _ in range(0, _DRAWS, 250):  # batches bound the memory of long bands
-        w = rng.standard_normal((250, drawn)) + 1j * rng.standard_normal((250, drawn))
-        logs.append(np.log(kurtosis_statistic(np.fft.ifft(w * shape, axis=1))))
-    lg = np.concatenate(logs)
-    spread = lg.std(ddof=1) * np.sqrt(drawn / n)  # (1 exactly where the band is drawn whole)
-    return float(np.exp(lg.mean() - stats.norm.isf(alpha) * spread))
 
 
 def resolvable_damping(frequency_hz: float, duration_s: float) -> float:
@@ -233,13 +193,16 @@ def cluster_evidence(frequency_hz: float, damping: float, outputs: Sequence[np.n
     # located frequency (module docstring)
     wt = max(w, 3.0 * resolution_hz)
     power = []  # of each output's band signal
+    leaks = []
+    check_rng = rng.spawn(1)[0]
     for x, name in zip(outputs, names, strict=True):
-        z, fs_z = band_envelope(np.asarray(x, float), fs, f, w)
-        power.append(float(np.mean(np.abs(z) ** 2)))
-        k = float(kurtosis_statistic(z))
-        lim = kurtosis_limit(f, max(zeta, zeta_res), w, fs_z, z.size, alpha, rng)
-        if k - lim < kurt - (limit if np.isfinite(limit) else 0.0):
-            kurt, limit, worst = k, lim, name
+        read = band_statistic(np.asarray(x, float), fs, f, max(zeta, zeta_res), w, alpha,
+                              rng, check_rng)
+        power.append(read.power)
+        if read.note:
+            leaks.append(f"{name}: {read.note}")
+        if read.kurtosis - read.limit < kurt - (limit if np.isfinite(limit) else 0.0):
+            kurt, limit, worst = read.kurtosis, read.limit, name
         d = peak_drift(np.asarray(x, float), fs, f, wt, 1.0 / resolution_hz)
         # the track must pass the cluster: one beside it is a line beside the cluster
         on = bool(d.low_hz <= f <= d.high_hz)
@@ -264,6 +227,7 @@ def cluster_evidence(frequency_hz: float, damping: float, outputs: Sequence[np.n
              f"{drift.rho:.2f}, p {drift.p:.1e} over {drift.n} segments, track "
              f"{drift.low_hz:.1f}-{drift.high_hz:.1f} Hz"
              + ("" if passes else " (does not pass the cluster: a peak beside it)"),
+             *leaks,
              f"damping {zeta:.4f} (the record resolves >= {zeta_res:.5f})",
              *([] if pdf_test else [f"the band holds order line(s) "
                                     f"{', '.join(f'{k:.4g}' for k in crossed)}: the PDF "
@@ -323,9 +287,11 @@ def cluster_evidence(frequency_hz: float, damping: float, outputs: Sequence[np.n
                              f"line has under {LINE_SHARE:g} times the power in its band, "
                              "which is Gaussian, resolved and coherent")
     else:
-        kind, why = "mode", "Gaussian in its band, resolved, coherent" + (
+        kind, why = "mode", ("Gaussian in its band, resolved, coherent" if pdf_test else
+                             "resolved and coherent (the line in its band sets its PDF)") + (
             f", on no order line of {bands.source}" if bands.source else "")
-    return Evidence(kind, f"{why}; " + "; ".join(facts), kurt, limit, coh, order)
+    return Evidence(kind, f"{why}; " + "; ".join(facts), kurt, limit, coh, order,
+                    bool(drifts))
 
 
 class Cluster(NamedTuple):
@@ -361,7 +327,11 @@ def record_evidence(clusters: Sequence[Cluster], data: Sequence[PairingData],
     (:func:`cluster_evidence`). Without one, the clusters the PDF or damping test found
     to be sinusoids give the record's own order-1 line (:func:`order_one`), the user's
     ``orders`` scale from it, and any other cluster on those lines is relabelled
-    ``harmonic``.
+    ``harmonic``. A cluster off those lines that the PDF test called a line, whose peak
+    does not drift, and whose half-power band ``2 zeta f`` is wider than every one of
+    those lines' bands in its band (no line makes a peak that wide), is judged again with
+    them, as with a measured speed (no angle): the line in its band, not the cluster,
+    made its PDF a sinusoid's.
 
     Parameters
     ----------
@@ -373,11 +343,11 @@ def record_evidence(clusters: Sequence[Cluster], data: Sequence[PairingData],
     """
     rng = np.random.default_rng(seed)
 
-    def judge(c: Cluster) -> Evidence:
+    def judge(c: Cluster, lines: HarmonicBands = bands) -> Evidence:
         d = data[c.pairing]
         return cluster_evidence(c.frequency_hz, c.damping, list(d.y.T), d.names, d.fs,
                                 d.frequency, d.coherence, resolution_hz, coherence_min,
-                                bands, rng, d.angle)
+                                lines, rng, d.angle if lines is bands else None)
 
     ev = [judge(c) for c in clusters]
     if bands.source:
@@ -392,4 +362,18 @@ def record_evidence(clusters: Sequence[Cluster], data: Sequence[PairingData],
                 text = f"order {order:.4g} of {own.source}; " + ev[k].text.split("; ", 1)[1]
                 ev[k] = ev[k]._replace(kind="harmonic", text=text)
             ev[k] = ev[k]._replace(line_order=order)
+        elif (ev[k].kind == "harmonic" and ev[k].kurtosis < ev[k].kurtosis_limit
+              and not ev[k].drifts and _wider_than_lines(c, own, resolution_hz)):
+            ev[k] = judge(c, own)
     return ev, own
+
+
+def _wider_than_lines(c: Cluster, bands: HarmonicBands, resolution_hz: float) -> bool:
+    """Whether lines of ``bands`` lie in the cluster's band (:func:`cluster_evidence`) and
+    its half-power band ``2 zeta f`` is wider than each of their bands (the widest peak
+    a line can make: :func:`line_width`)."""
+    f = c.frequency_hz
+    w = _half_width(f, c.damping, resolution_hz)
+    inside = (bands.low_hz <= f + w) & (bands.high_hz >= f - w)
+    return bool(inside.any() and 2.0 * c.damping * f
+                > np.max(bands.high_hz[inside] - bands.low_hz[inside]))
