@@ -13,6 +13,7 @@ from gbpipe.identify.band_kurtosis import (
     CHECK_ORDERS,
     OWN_POWER,
     band_statistic,
+    kurtosis_limit,
     kurtosis_statistic,
 )
 from gbpipe.identify.band_signal import FILTER_ORDER, band_envelope
@@ -48,7 +49,12 @@ def _cases(n: int) -> list[tuple[float, float, float, float]]:
             for _ in range(n)]
 
 
-@pytest.mark.parametrize(("f0", "zeta", "offset", "db"), _cases(8))
+#: A line 100 dB over the band at 1.7 cut-offs: 26 dB over it still through order 8's
+#: skirt (74 dB down), so only order 16 (147 dB down) reads the band.
+DEEP = (150.0, 0.03, 1.7, 100.0)
+
+
+@pytest.mark.parametrize(("f0", "zeta", "offset", "db"), [*_cases(8), DEEP])
 def test_a_line_outside_the_band_is_read_past_and_one_inside_is_not(f0, zeta, offset, db):
     rng = np.random.default_rng(int(f0 * 100))
     n = int(DURATION * FS)
@@ -74,20 +80,29 @@ def test_a_line_outside_the_band_is_read_past_and_one_inside_is_not(f0, zeta, of
     rngs = np.random.default_rng(0), np.random.default_rng(1)
     read = band_statistic(x, FS, f0, zeta, w, ALPHA, *rngs)
     assert read.kurtosis > read.limit and abs(read.kurtosis - 3) < 0.35, read
+    assert bool(read.note) == (read.order != FILTER_ORDER)
     if read.note:  # the order-4 reading was a sinusoid's: a steeper filter was read
-        order = int(read.note.split("order-")[2].split(" ")[0])
-        assert order in CHECK_ORDERS
-        assert read.power == pytest.approx(_band_power(mode, f0, w, order), rel=0.2)
+        assert read.order in CHECK_ORDERS
+        assert read.power == pytest.approx(_band_power(mode, f0, w, read.order), rel=0.2)
+        # the check's draws come from its own stream: the main one has given exactly
+        # the order-4 limit's draws, as without a check
+        again = np.random.default_rng(0)
+        z4, fs_z = band_envelope(x, FS, f0, w)
+        kurtosis_limit(f0, zeta, w, fs_z, z4.size, ALPHA, again)
+        assert rngs[0].random() == again.random()
     f = np.linspace(0, FS / 2, 1001)
+    if (f0, zeta, offset, db) == DEEP:
+        assert read.order == CHECK_ORDERS[-1]
     ev = cluster_evidence(f0, zeta, [x], ["y"], FS, f, np.ones_like(f), RESOLUTION, 0.6,
                           NO_LINES, np.random.default_rng(2))
     assert ev.kind == "mode", ev.text
     # a line inside the band (at the cluster, 10 dB over the band) keeps its power
-    # through every filter: read as the sinusoid it is
-    inside = x + 2 * np.sqrt(10 * own) * np.sin(2 * np.pi * f0 * t)
-    read = band_statistic(inside, FS, f0, zeta, w, ALPHA, *rngs)
-    assert read.kurtosis < read.limit
-    ev = cluster_evidence(f0, zeta, [inside], ["y"], FS, f, np.ones_like(f), RESOLUTION,
+    # through every filter: read as the sinusoid it is, by the order-4 filter alone
+    line = 2 * np.sqrt(10 * own) * np.sin(2 * np.pi * f0 * t)
+    read = band_statistic(mode + line, FS, f0, zeta, w, ALPHA, *rngs)
+    assert read.kurtosis < read.limit and read.order == FILTER_ORDER and read.note == ""
+    # and beside the leaking line, through whichever filter reads the band
+    ev = cluster_evidence(f0, zeta, [x + line], ["y"], FS, f, np.ones_like(f), RESOLUTION,
                           0.6, NO_LINES, np.random.default_rng(2))
     assert ev.kind == "harmonic", ev.text
 

@@ -30,7 +30,7 @@ _DRAWS = 1000
 DRAWN_SAMPLES = 1 << 16
 #: Steeper Butterworth orders a band signal that reads as a sinusoid is filtered again
 #: with, in turn: a strong line outside the band leaks through the skirt of the order-4
-#: low-pass (38 dB down at 1.7 cut-offs, 75 dB with order 8) and can hold the band signal.
+#: low-pass (37 dB down at 1.7 cut-offs, 74 dB with order 8) and can hold the band signal.
 CHECK_ORDERS = (8, 16)
 #: Share of the band signal's power [1] a steeper filter keeps where the band holds it:
 #: a flat band keeps 1.05 (order 8 against 4), a mode's more nearly 1; under this share,
@@ -88,6 +88,8 @@ class BandStatistic(NamedTuple):
         ``mean |z|^2`` of the band signal read [x's unit squared].
     kurtosis, limit : float
         Its statistic and the limit under the mode hypothesis [1].
+    order : int
+        Order of the low-pass whose band signal was read.
     note : str
         Why a steeper filter was read (empty where the order-4 band signal was).
     """
@@ -95,6 +97,7 @@ class BandStatistic(NamedTuple):
     power: float
     kurtosis: float
     limit: float
+    order: int
     note: str
 
 
@@ -124,22 +127,32 @@ def band_statistic(x: np.ndarray, fs: float, f0: float, damping: float, half_wid
     rng, check_rng : numpy.random.Generator
         Draws of the order-4 limit, and of the steeper filters' (apart, so that a check
         leaves the draws of the other clusters as they are).
+
+    Returns
+    -------
+    BandStatistic
+        The reading of the last filter whose band held its own power. Its ``power`` is
+        the band's power the order lines' share is taken of
+        (:func:`gbpipe.identify.band_signal.line_share`): a leak is no part of the band.
     """
     z, fs_z = band_envelope(x, fs, f0, half_width)
     power, k = float(np.mean(np.abs(z) ** 2)), float(kurtosis_statistic(z))
     limit = kurtosis_limit(f0, damping, half_width, fs_z, z.size, alpha, rng)
-    first, note = power, ""
+    first, used, note = power, FILTER_ORDER, ""
     for order in CHECK_ORDERS:
-        if k >= limit:
+        # NaN (a band without power) reads as no sinusoid; a record too short for the
+        # steeper filter's padding (3 (order + 1) samples) keeps the reading it has
+        if not k < limit or x.size <= 3 * (order + 1):
             break
         zs, fs_s = band_envelope(x, fs, f0, half_width, order, settled=True)
         kept = float(np.mean(np.abs(zs) ** 2))
-        if kept >= OWN_POWER * power:
+        if not kept < OWN_POWER * power:
             break
-        power, k = kept, float(kurtosis_statistic(zs))
+        power, k, used = kept, float(kurtosis_statistic(zs)), order
         limit = kurtosis_limit(f0, damping, half_width, fs_s, zs.size, alpha, check_rng,
                                order)
+        ratio = f"{first / kept:.3g}" if kept > 0 else "inf"
         note = (f"a leak from outside the band held its order-{FILTER_ORDER} signal "
-                f"({first / kept:.3g} times the power an order-{order} filter keeps): read "
-                f"through the order-{order} filter")
-    return BandStatistic(power, k, limit, note)
+                f"({ratio} times the power an order-{order} filter keeps): read through "
+                f"the order-{order} filter")
+    return BandStatistic(power, k, limit, used, note)

@@ -47,7 +47,9 @@ def band_envelope(x: np.ndarray, fs: float, f0: float, half_width: float,
         signal's power and ``P_z`` the band signal's over the record's middle half (a
         strong line outside the band starts the filter as strongly as it drives the
         input). Default: ``2 / cut``, about five time constants of the order-4
-        low-pass, enough where the band holds most of the power that passes.
+        low-pass, enough where the band holds most of the power that passes. Either is
+        capped at a quarter of the record at each end (a narrow band on a short record
+        may then keep some of the start-up: it adds power and bursts, never a sinusoid).
 
     Returns
     -------

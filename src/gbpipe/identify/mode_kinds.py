@@ -113,7 +113,7 @@ class Evidence(NamedTuple):
     kurtosis_limit: float
     coherence: float
     line_order: float
-    drifts: bool = False
+    drifts: bool
 
 
 def _half_width(frequency_hz: float, damping: float, resolution_hz: float) -> float:
@@ -131,6 +131,13 @@ def resolvable_damping(frequency_hz: float, duration_s: float) -> float:
 def _inside(frequency_hz: float, bands: HarmonicBands) -> np.ndarray:
     """Mask of the bands ``frequency_hz`` [Hz] lies in."""
     return (bands.low_hz <= frequency_hz) & (frequency_hz <= bands.high_hz)
+
+
+def _overlapping(frequency_hz: float, half_width: float, bands: HarmonicBands
+                 ) -> np.ndarray:
+    """Mask of the bands that overlap ``frequency_hz ± half_width`` [Hz]."""
+    return ((bands.low_hz <= frequency_hz + half_width)
+            & (bands.high_hz >= frequency_hz - half_width))
 
 
 def on_line(frequency_hz: float, bands: HarmonicBands) -> float:
@@ -217,10 +224,9 @@ def cluster_evidence(frequency_hz: float, damping: float, outputs: Sequence[np.n
     # a known order line inside the band makes its PDF (and its peak track, in the wider
     # band) a line's whatever the cluster: there the speed decides, not the PDF (a mode
     # beside a line stays a mode)
-    crossed = bands.order[(bands.low_hz <= f + w) & (bands.high_hz >= f - w)]
+    crossed = bands.order[_overlapping(f, w, bands)]
     pdf_test = np.isfinite(order) or not crossed.size
-    drift_test = np.isfinite(order) or not np.any((bands.low_hz <= f + wt)
-                                                  & (bands.high_hz >= f - wt))
+    drift_test = np.isfinite(order) or not np.any(_overlapping(f, wt, bands))
     facts = [f"kurtosis {kurt:.2f} in {band} of {worst} (sinusoid 1.5, Gaussian 3; a mode "
              f"of this damping gives >= {limit:.2f} with {100 * (1 - alpha):.2f} %)",
              f"peak frequency vs time in {track_band} of {drift_at}: Spearman "
@@ -343,13 +349,13 @@ def record_evidence(clusters: Sequence[Cluster], data: Sequence[PairingData],
     """
     rng = np.random.default_rng(seed)
 
-    def judge(c: Cluster, lines: HarmonicBands = bands) -> Evidence:
+    def judge(c: Cluster, lines: HarmonicBands, angle: np.ndarray | None) -> Evidence:
         d = data[c.pairing]
         return cluster_evidence(c.frequency_hz, c.damping, list(d.y.T), d.names, d.fs,
                                 d.frequency, d.coherence, resolution_hz, coherence_min,
-                                lines, rng, d.angle if lines is bands else None)
+                                lines, rng, angle)
 
-    ev = [judge(c) for c in clusters]
+    ev = [judge(c, bands, data[c.pairing].angle) for c in clusters]
     if bands.source:
         return ev, bands
     lines = np.array([c.frequency_hz for c, e in zip(clusters, ev, strict=True)
@@ -364,7 +370,7 @@ def record_evidence(clusters: Sequence[Cluster], data: Sequence[PairingData],
             ev[k] = ev[k]._replace(line_order=order)
         elif (ev[k].kind == "harmonic" and ev[k].kurtosis < ev[k].kurtosis_limit
               and not ev[k].drifts and _wider_than_lines(c, own, resolution_hz)):
-            ev[k] = judge(c, own)
+            ev[k] = judge(c, own, None)  # the record's own lines: no angle measured
     return ev, own
 
 
@@ -373,7 +379,6 @@ def _wider_than_lines(c: Cluster, bands: HarmonicBands, resolution_hz: float) ->
     its half-power band ``2 zeta f`` is wider than each of their bands (the widest peak
     a line can make: :func:`line_width`)."""
     f = c.frequency_hz
-    w = _half_width(f, c.damping, resolution_hz)
-    inside = (bands.low_hz <= f + w) & (bands.high_hz >= f - w)
+    inside = _overlapping(f, _half_width(f, c.damping, resolution_hz), bands)
     return bool(inside.any() and 2.0 * c.damping * f
                 > np.max(bands.high_hz[inside] - bands.low_hz[inside]))
