@@ -150,8 +150,12 @@ def line_width(frequency_hz: float, bands: HarmonicBands) -> float:
     """Width of the widest band ``frequency_hz`` [Hz] lies in [Hz], NaN for none: the
     widest peak an order line there can have (its order times the shaft's speed range,
     one frequency line on each side)."""
-    inside = _inside(frequency_hz, bands)
-    return float(np.max(bands.high_hz[inside] - bands.low_hz[inside])) if inside.any() \
+    return _widest(bands, _inside(frequency_hz, bands))
+
+
+def _widest(bands: HarmonicBands, mask: np.ndarray) -> float:
+    """Width of the widest of the bands ``mask`` selects [Hz], NaN for none."""
+    return float(np.max(bands.high_hz[mask] - bands.low_hz[mask])) if mask.any() \
         else np.nan
 
 
@@ -190,6 +194,7 @@ def cluster_evidence(frequency_hz: float, damping: float, outputs: Sequence[np.n
         cluster on a line is one.
     """
     f, zeta = float(frequency_hz), float(damping)
+    outputs = [np.asarray(x, float) for x in outputs]
     w = _half_width(f, zeta, resolution_hz)
     duration = outputs[0].size / fs
     zeta_res = resolvable_damping(f, duration)
@@ -203,14 +208,13 @@ def cluster_evidence(frequency_hz: float, damping: float, outputs: Sequence[np.n
     leaks = []
     check_rng = rng.spawn(1)[0]
     for x, name in zip(outputs, names, strict=True):
-        read = band_statistic(np.asarray(x, float), fs, f, max(zeta, zeta_res), w, alpha,
-                              rng, check_rng)
+        read = band_statistic(x, fs, f, max(zeta, zeta_res), w, alpha, rng, check_rng)
         power.append(read.power)
         if read.note:
             leaks.append(f"{name}: {read.note}")
         if read.kurtosis - read.limit < kurt - (limit if np.isfinite(limit) else 0.0):
             kurt, limit, worst = read.kurtosis, read.limit, name
-        d = peak_drift(np.asarray(x, float), fs, f, wt, 1.0 / resolution_hz)
+        d = peak_drift(x, fs, f, wt, 1.0 / resolution_hz)
         # the track must pass the cluster: one beside it is a line beside the cluster
         on = bool(d.low_hz <= f <= d.high_hz)
         if drift is None or (on and (not passes or d.p < drift.p)):
@@ -246,7 +250,7 @@ def cluster_evidence(frequency_hz: float, damping: float, outputs: Sequence[np.n
         # every measured line whose band holds the cluster (bands overlap where the speed
         # range is wide or a mesh order meets a shaft harmonic)
         lines = bands.order[_inside(f, bands)]
-        shares = [line_share(np.asarray(x, float) - np.mean(x), fs, angle, lines,
+        shares = [line_share(x - np.mean(x), fs, angle, lines,
                              1.0 / resolution_hz, p, stats.norm.isf(alpha))
                   for x, p in zip(outputs, power, strict=True)]
         named = (f"the line{'s' if lines.size > 1 else ''} of order "
@@ -379,6 +383,5 @@ def _wider_than_lines(c: Cluster, bands: HarmonicBands, resolution_hz: float) ->
     its half-power band ``2 zeta f`` is wider than each of their bands (the widest peak
     a line can make: :func:`line_width`)."""
     f = c.frequency_hz
-    inside = _overlapping(f, _half_width(f, c.damping, resolution_hz), bands)
-    return bool(inside.any() and 2.0 * c.damping * f
-                > np.max(bands.high_hz[inside] - bands.low_hz[inside]))
+    widest = _widest(bands, _overlapping(f, _half_width(f, c.damping, resolution_hz), bands))
+    return bool(2.0 * c.damping * f > widest)  # NaN (no line in the band): False
