@@ -39,6 +39,12 @@ def _sdof(f0: float, zeta: float, n: int, rng: np.random.Generator) -> np.ndarra
     return sdof_response(f0, zeta, n, rng, FS)
 
 
+def _rippling_shaft(n: int) -> tuple[np.ndarray, np.ndarray]:
+    # a 20 Hz shaft whose speed ripples 0.1 % over 20 s: its frequency [Hz] and angle [rad]
+    shaft = 20.0 * (1 + 0.001 * np.sin(2 * np.pi * 0.05 * np.arange(n) / FS))
+    return shaft, 2 * np.pi * np.cumsum(shaft) / FS
+
+
 def test_band_kurtosis_of_a_sine_in_noise_is_the_closed_form():
     # x = A sin + Gaussian noise n: kurtosis 3 - 1.5 p^2, p the sine's share of the band
     # power (E s^4 = 3 A^4 / 8, E s^2 = A^2 / 2); the noise's band power measured alone
@@ -202,9 +208,7 @@ def test_a_pole_wider_than_the_line_on_it_is_the_mode_the_line_crosses():
     where the band is not coherent."""
     rng = np.random.default_rng(21)
     n = int(40 * FS)
-    t = np.arange(n) / FS
-    shaft = 20.0 * (1 + 0.001 * np.sin(2 * np.pi * 0.05 * t))
-    angle = 2 * np.pi * np.cumsum(shaft) / FS
+    shaft, angle = _rippling_shaft(n)
     r = _sdof(200.0, 0.025, n, rng)
     x = r / r.std() + 3.0 * np.cos(10 * angle)
     bands = harmonic_bands((shaft.min(), shaft.max()), [10.0], 0.5, 0)
@@ -225,6 +229,43 @@ def test_a_pole_wider_than_the_line_on_it_is_the_mode_the_line_crosses():
     assert ev.kind == "harmonic" and ev.text.startswith("order 10"), ev.text
     assert kind(0.025, phase=None).kind == "harmonic"
     assert kind(0.025, coherence=np.full_like(f, 0.3)).kind == "harmonic"
+
+
+def test_a_subspace_pole_on_a_line_the_frfs_diagram_does_not_hold_is_the_line():
+    """The record holds one mode (72 Hz, 2 %, scipy) and order 5 of a 20 Hz shaft at
+    100 Hz with a third of the rms of the white noise in a 1.6 Hz band about it: the line
+    holds a small share of the band, and the band is Gaussian. A subspace cluster at
+    100 Hz (the fit of the whole output can give the line a pole) then reads as the
+    mode the line crosses: by the line's share (0.4 %, narrower than the line's 1.2 Hz
+    band) or by its width (1 %, 2 Hz wider). With the FRF diagram's clusters beside it,
+    which hold only the 72 Hz mode, it is the line: the truth, for no mode lies at
+    100 Hz. Where the FRF's diagram holds a cluster in its band, it is the mode again."""
+    rng = np.random.default_rng(29)
+    n = int(40 * FS)
+    shaft, angle = _rippling_shaft(n)
+    mode = _sdof(72.0, 0.02, n, rng)
+    # the line's amplitude: a third of the white noise's rms in 1.6 Hz (1.6/500 of it)
+    amp = np.sqrt(2 * 1.6 / (FS / 2)) / 3
+    x = 0.5 * mode / mode.std() + rng.standard_normal(n) + amp * np.cos(5 * angle)
+    bands = harmonic_bands((shaft.min(), shaft.max()), [5.0], 0.5, 0)
+    assert float(bands.high_hz[0] - bands.low_hz[0]) == pytest.approx(1.2, abs=0.01)
+    f = np.linspace(0, 500, 1001)
+    coh = np.ones_like(f)
+    for zeta, w in ((0.004, 0.8), (0.01, 2.0)):  # w: the cluster's band, max(0.5, 2 zeta f)
+
+        def judge(frf_hz, zeta=zeta):
+            return cluster_evidence(100.0, zeta, [x], ["y"], FS, f, coh, 0.5, 0.6, bands,
+                                    rng, angle, frf_hz)
+
+        alone = judge(None)
+        assert alone.kind == "mode" and "5 of  cross" in alone.text, alone.text
+        bound = float(re.search(r"at most ([0-9.]+) with", alone.text).group(1))
+        assert bound < LINE_SHARE and alone.kurtosis >= alone.kurtosis_limit, alone.text
+        beside = judge(np.array([71.9]))
+        assert beside.kind == "harmonic" and beside.text.startswith("order 5"), beside.text
+        assert (f"the FRF's diagram (LSCF) holds no pole in {100 - w:.1f}-{100 + w:.1f} Hz"
+                in beside.text), beside.text
+        assert judge(np.array([71.9, 100.0 + 0.9 * w])).kind == "mode"
 
 
 def test_damping_below_the_records_resolution_is_a_line():

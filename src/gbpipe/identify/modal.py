@@ -17,8 +17,10 @@ Both are fitted again on the data decimated further (zoom, :func:`zoom_bands`), 
 diagram is read as one joined over those bands: a model of a few dozen states over
 0-Nyquist fits the low end of the band poorly (docs/modal.md, "Zoomed diagrams").
 
-Each cluster of stable poles is labelled ``harmonic`` when it lies on a shaft-order line
-of the record's speed range (:mod:`gbpipe.identify.harmonic_lines`), else ``mode``. The
+Each cluster of stable poles is judged ``mode``, ``harmonic`` (an order line) or
+``spurious`` (noise fitted) by :mod:`gbpipe.identify.mode_kinds`; a subspace cluster on
+an order line is weighed against the LSCF diagram of the same pairing, which fits the FRF
+from the measured input alone (:func:`_frf_clusters`). The
 subspace diagram's order (the lowest that holds every cluster, harmonics included: the
 identify stage's model must explain the lines too) is ``model_order``, which the identify
 stage of the record uses. docs/modal.md.
@@ -131,8 +133,8 @@ def record_modes(cfg: Mapping[str, Any], record: xr.Dataset,
             else:
                 log.info("%s %s: %d clusters", p["name"], method, len(res.clusters))
     kept = _in_band(s, results)
-    clusters = [Cluster(j, m.frequency_hz, m.damping) for (_, j), ms in kept.items()
-                for _, m in ms]
+    clusters = [Cluster(j, m.frequency_hz, m.damping, _frf_clusters(results[j], method))
+                for (method, j), ms in kept.items() for _, m in ms]
     evidence, bands = record_evidence(
         clusters, data, bands, orders, resolution,
         float(s["nonparametric"]["coherence_min"]), st["shaft_harmonics"],
@@ -140,6 +142,16 @@ def record_modes(cfg: Mapping[str, Any], record: xr.Dataset,
         {} if speed else _turning_shafts(record, 1.0 / resolution))
     return _dataset(s, [p["name"] for p in s["pairings"]], results, own, refs, bands,
                     record, kept, evidence)
+
+
+def _frf_clusters(diagrams: Mapping[str, Any], method: str) -> np.ndarray | None:
+    # the frequencies [Hz] of the LSCF diagram's clusters and candidates, which a cluster
+    # of the subspace diagram on an order line must meet to be a mode (mode_kinds); None
+    # for LSCF's own clusters, or where its diagram failed: nothing to meet
+    lscf = diagrams.get("lscf")
+    if method == "lscf" or lscf is None or isinstance(lscf, str):
+        return None
+    return np.array([m.frequency_hz for m in (*lscf.clusters, *lscf.candidates)])
 
 
 def _turning_shafts(record: xr.Dataset, segment: float) -> dict[str, tuple[float, float]]:

@@ -17,7 +17,10 @@ A stable cluster of a stabilization diagram is one of three things:
       whatever line passes). A coherent cluster whose half-power band ``2 zeta f`` is
       wider than the whole band of the measured line on it (:func:`line_width`) is the
       mode the line crosses whatever these tests say: they see the line, and no line
-      makes a peak that wide;
+      makes a peak that wide. A cluster of another diagram on a line is a mode only where
+      the FRF's own diagram (LSCF) holds a cluster or candidate in its band: the FRF
+      from the measured input averages out what that input does not drive, while a
+      subspace fit models the whole output, a line under the band's noise included;
     * the **PDF** of the response in the cluster's band (Brincker, Andersen & Møller,
       "Identification of harmonics in operational modal analysis", IMAC 2000; Jacobs et
       al., "Harmonic detection in OMA", ISMA 2008): the band-passed response of a mode
@@ -35,17 +38,15 @@ A stable cluster of a stabilization diagram is one of three things:
       (:func:`gbpipe.identify.band_kurtosis.band_statistic`);
     * the **drift**: a line follows its shaft's speed, so the peak near the cluster
       moves with time along a monotonic track (a run-up, a slow drift: the line sweeps
-      through the band and its PDF there is bursty, not a sinusoid's); a mode's peak
-      jitters at random. Spearman's rank correlation of the peak frequency of each Welch
-      segment with time (:func:`gbpipe.identify.peak_drift.peak_drift`), p below
-      ``ALPHA``, on a track that passes the cluster's frequency. The track is searched
-      in the cluster's band, at least ``3 / segment`` wide on each side: a pole the
-      segment's spectrum does not resolve (``2 zeta f`` below ``1 / segment``, as a
-      line's) is located within one frequency line, and the Hann window spreads a line
-      over its main lobe, ``2 / segment`` on each side. The fit puts a swept line's pole
-      anywhere on its sweep: within the pole's own band the line is seen only part of
-      the record (its peak then sits at the band's edge, a flat track). Any stationary
-      response (modes, noise) still has no trend in the wider band;
+      through the band, its PDF there bursty); a mode's peak jitters at random.
+      Spearman's rank correlation of each Welch segment's peak frequency with time
+      (:func:`gbpipe.identify.peak_drift.peak_drift`), p below ``ALPHA``, on a track
+      through the cluster's frequency, searched in the cluster's band, at least
+      ``3 / segment`` on each side: an unresolved pole (``2 zeta f < 1 / segment``, as a
+      line's) is located within one frequency line, the Hann main lobe spans
+      ``2 / segment`` on each side, and the fit puts a swept line's pole anywhere on its
+      sweep (within the pole's own band the line's peak sits at the edge, a flat track).
+      A stationary response (modes, noise) has no trend in the wider band;
     * the **damping**: a half-power bandwidth ``2 ζ f`` narrower than the record's
       frequency resolution ``1 / T`` (a decay longer than the record) cannot be told from
       a line: ``ζ < 1 / (2 f T)``.
@@ -163,7 +164,8 @@ def cluster_evidence(frequency_hz: float, damping: float, outputs: Sequence[np.n
                      names: Sequence[str], fs: float, coherence_f: np.ndarray,
                      coherence: np.ndarray, resolution_hz: float, coherence_min: float,
                      bands: HarmonicBands, rng: np.random.Generator,
-                     angle: np.ndarray | None = None) -> Evidence:
+                     angle: np.ndarray | None = None, frf_hz: np.ndarray | None = None
+                     ) -> Evidence:
     """The kind of one cluster and why (module docstring).
 
     Parameters
@@ -192,6 +194,10 @@ def cluster_evidence(frequency_hz: float, damping: float, outputs: Sequence[np.n
         (:func:`gbpipe.identify.band_signal.line_share`) or its pole is wider than the
         line's band (:func:`line_width`: the speed range is measured); without it every
         cluster on a line is one.
+    frf_hz : ndarray, optional
+        Frequencies [Hz] of the clusters and candidates of the FRF's own diagram (LSCF)
+        of the pairing, for a cluster of another diagram: on an order line, one with
+        none of them in its band is the line's (module docstring). None: not asked.
     """
     f, zeta = float(frequency_hz), float(damping)
     outputs = [np.asarray(x, float) for x in outputs]
@@ -268,8 +274,13 @@ def cluster_evidence(frequency_hz: float, damping: float, outputs: Sequence[np.n
     # a measured speed bounds the line's width: the record's own line has no speed range
     # (wider than two frequency lines, so also resolved: 2 zeta f > 2 / segment > 1 / T)
     width = line_width(f, bands)
+    # the FRF averages out what the measured input does not drive (an order line): a
+    # pole of the output's fit that the FRF's diagram does not hold is not a mode of it
+    in_frf = frf_hz is None or bool(np.any(np.abs(np.asarray(frf_hz) - f) <= w))
+    if not in_frf and np.isfinite(order):
+        facts.insert(0, f"the FRF's diagram (LSCF) holds no pole in {band}")
     crossing = (angle is not None and bool(2.0 * zeta * f > width)  # NaN: on no line
-                and coh >= coherence_min)
+                and coh >= coherence_min and in_frf)
     if crossing:
         on = ", ".join(f"{k:.4g}" for k in bands.order[_inside(f, bands)])
         facts.insert(0, f"half-power band 2 zeta f = {2 * zeta * f:.2f} Hz, wider than the "
@@ -277,7 +288,7 @@ def cluster_evidence(frequency_hz: float, damping: float, outputs: Sequence[np.n
         kind, why = "mode", (f"a mode that order(s) {on} of {bands.source} cross: its pole "
                              "is wider than any peak of the line")
     elif np.isfinite(order) and (held or sinusoid or drifts or zeta < zeta_res
-                                 or coh < coherence_min):
+                                 or coh < coherence_min or not in_frf):
         kind, why = "harmonic", f"order {order:.4g} of {bands.source}"
     elif zeta < zeta_res:
         kind, why = "harmonic", (f"damping {zeta:.5f} below the record's resolution "
@@ -305,11 +316,13 @@ def cluster_evidence(frequency_hz: float, damping: float, outputs: Sequence[np.n
 
 
 class Cluster(NamedTuple):
-    """One cluster to judge: its pairing (index) and its frequency [Hz] and damping [1]."""
+    """One cluster to judge: its pairing (index), frequency [Hz], damping [1] and, for a
+    cluster of a diagram other than the FRF's, ``frf_hz`` (:func:`cluster_evidence`)."""
 
     pairing: int
     frequency_hz: float
     damping: float
+    frf_hz: np.ndarray | None = None
 
 
 class PairingData(NamedTuple):
@@ -357,7 +370,7 @@ def record_evidence(clusters: Sequence[Cluster], data: Sequence[PairingData],
         d = data[c.pairing]
         return cluster_evidence(c.frequency_hz, c.damping, list(d.y.T), d.names, d.fs,
                                 d.frequency, d.coherence, resolution_hz, coherence_min,
-                                lines, rng, angle)
+                                lines, rng, angle, c.frf_hz)
 
     ev = [judge(c, bands, data[c.pairing].angle) for c in clusters]
     if bands.source:
