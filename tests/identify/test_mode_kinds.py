@@ -247,21 +247,22 @@ def test_a_subspace_pole_on_a_line_the_frfs_diagram_does_not_hold_is_the_line():
     # the line's amplitude: a third of the white noise's rms in 1.6 Hz (1.6/500 of it)
     amp = np.sqrt(2 * 1.6 / (FS / 2)) / 3
     x = 0.5 * mode / mode.std() + rng.standard_normal(n) + amp * np.cos(5 * angle)
-    bands = harmonic_bands((shaft.min(), shaft.max()), [5.0], 0.5, 0)
+    bands = harmonic_bands((shaft.min(), shaft.max()), [5.0], 0.5, 0)._replace(
+        source="the tacho")
     assert float(bands.high_hz[0] - bands.low_hz[0]) == pytest.approx(1.2, abs=0.01)
     f = np.linspace(0, 500, 1001)
     coh = np.ones_like(f)
     for zeta, w in ((0.004, 0.8), (0.01, 2.0)):  # w: the cluster's band, max(0.5, 2 zeta f)
 
-        def judge(frf_hz, zeta=zeta):
+        def judge(frf_hz, zeta=zeta):  # the same Monte Carlo draws for every frf_hz
             return cluster_evidence(100.0, zeta, [x], ["y"], FS, f, coh, 0.5, 0.6, bands,
-                                    rng, angle, frf_hz)
+                                    np.random.default_rng(7), angle, frf_hz)
 
         alone = judge(None)
-        assert alone.kind == "mode" and "5 of  cross" in alone.text, alone.text
+        assert alone.kind == "mode" and "5 of the tacho cross" in alone.text, alone.text
         bound = float(re.search(r"at most ([0-9.]+) with", alone.text).group(1))
         assert bound < LINE_SHARE and alone.kurtosis >= alone.kurtosis_limit, alone.text
-        beside = judge(np.array([71.9]))
+        beside = judge(np.array([71.9, 100.0 + 1.1 * w]))
         assert beside.kind == "harmonic" and beside.text.startswith("order 5"), beside.text
         assert (f"the FRF's diagram (LSCF) holds no pole in {100 - w:.1f}-{100 + w:.1f} Hz"
                 in beside.text), beside.text
@@ -423,6 +424,15 @@ def test_kinds_of_a_record_with_known_mode_and_lines(speed):
         else:  # no other mode in the record: anything else is not a mode
             assert r["kind"] != "mode", r
     assert found and n_lines >= 2  # the lines do make stable clusters: the test bites
+    # a subspace line the FRF's diagram does not hold says so (the LSCF diagram of the
+    # same pairing); only with a measured speed, which places the lines before the PDF
+    held_not = [r for r in rows if "the FRF's diagram (LSCF) holds no pole" in r["evidence"]]
+    assert all(r["method"] == "pbsid" and r["kind"] == "harmonic" for r in held_not)
+    assert bool(held_not) == (speed != "none"), rows
+    for r in held_not:
+        lo, hi = map(float, re.search(r"holds no pole in ([0-9.]+)-([0-9.]+) Hz",
+                                      r["evidence"]).groups())
+        assert not any(lo <= q["frequency_hz"] <= hi for q in rows if q["method"] == "lscf")
     # the model order holds the mode and the diagram's lines, and no lower order does
     tol = cfg["identify"]["stabilization"]["frequency_tolerance"]
     d = ds.sel({"method": "pbsid"}).isel(pairing=0)

@@ -20,10 +20,9 @@ diagram is read as one joined over those bands: a model of a few dozen states ov
 Each cluster of stable poles is judged ``mode``, ``harmonic`` (an order line) or
 ``spurious`` (noise fitted) by :mod:`gbpipe.identify.mode_kinds`; a subspace cluster on
 an order line is weighed against the LSCF diagram of the same pairing, which fits the FRF
-from the measured input alone (:func:`_frf_clusters`). The
-subspace diagram's order (the lowest that holds every cluster, harmonics included: the
-identify stage's model must explain the lines too) is ``model_order``, which the identify
-stage of the record uses. docs/modal.md.
+from the measured input alone. The subspace diagram's order (the lowest that holds every
+cluster, harmonics included: the identify stage's model must explain the lines too) is
+``model_order``, which the identify stage of the record uses. docs/modal.md.
 """
 
 from __future__ import annotations
@@ -133,7 +132,8 @@ def record_modes(cfg: Mapping[str, Any], record: xr.Dataset,
             else:
                 log.info("%s %s: %d clusters", p["name"], method, len(res.clusters))
     kept = _in_band(s, results)
-    clusters = [Cluster(j, m.frequency_hz, m.damping, _frf_clusters(results[j], method))
+    frf = [_frf_clusters(res) for res in results]  # per pairing; LSCF's own: not asked
+    clusters = [Cluster(j, m.frequency_hz, m.damping, None if method == "lscf" else frf[j])
                 for (method, j), ms in kept.items() for _, m in ms]
     evidence, bands = record_evidence(
         clusters, data, bands, orders, resolution,
@@ -144,12 +144,12 @@ def record_modes(cfg: Mapping[str, Any], record: xr.Dataset,
                     record, kept, evidence)
 
 
-def _frf_clusters(diagrams: Mapping[str, Any], method: str) -> np.ndarray | None:
-    # the frequencies [Hz] of the LSCF diagram's clusters and candidates, which a cluster
-    # of the subspace diagram on an order line must meet to be a mode (mode_kinds); None
-    # for LSCF's own clusters, or where its diagram failed: nothing to meet
-    lscf = diagrams.get("lscf")
-    if method == "lscf" or lscf is None or isinstance(lscf, str):
+def _frf_clusters(by_method: Mapping[str, Any]) -> np.ndarray | None:
+    # what a subspace cluster on an order line must meet to be a mode (mode_kinds): the
+    # frequencies [Hz] of the clusters and candidates of one pairing's LSCF diagram, from
+    # its joined diagrams by method; None where that diagram failed: nothing to meet
+    lscf = by_method.get("lscf")
+    if lscf is None or isinstance(lscf, str):
         return None
     return np.array([m.frequency_hz for m in (*lscf.clusters, *lscf.candidates)])
 
