@@ -147,9 +147,10 @@ def record_modes(cfg: Mapping[str, Any], record: xr.Dataset,
 def _frf_clusters(by_method: Mapping[str, Any]) -> np.ndarray | None:
     # what a subspace cluster on an order line must meet to be a mode (mode_kinds): the
     # frequencies [Hz] of the clusters and candidates of one pairing's LSCF diagram, from
-    # its joined diagrams by method; None where that diagram failed: nothing to meet
-    lscf = by_method.get("lscf")
-    if lscf is None or isinstance(lscf, str):
+    # its joined diagrams by method (diagrams() gives LSCF's or the reason it failed);
+    # None where it failed: nothing to meet
+    lscf = by_method["lscf"]
+    if isinstance(lscf, str):
         return None
     return np.array([m.frequency_hz for m in (*lscf.clusters, *lscf.candidates)])
 
