@@ -63,6 +63,27 @@ class HarmonicBands(NamedTuple):
     shaft_hz: tuple[float, float]
     source: str = ""
 
+    def inside(self, frequency_hz: float) -> np.ndarray:
+        """Mask of the bands ``frequency_hz`` [Hz] lies in."""
+        return (self.low_hz <= frequency_hz) & (frequency_hz <= self.high_hz)
+
+    def overlapping(self, frequency_hz: float, half_width: float) -> np.ndarray:
+        """Mask of the bands that overlap ``frequency_hz ± half_width`` [Hz]."""
+        return ((self.low_hz <= frequency_hz + half_width)
+                & (self.high_hz >= frequency_hz - half_width))
+
+    def order_at(self, frequency_hz: float) -> float:
+        """Order of the band ``frequency_hz`` [Hz] lies in (the lowest) [1], NaN for none."""
+        inside = self.inside(frequency_hz)
+        return float(self.order[inside][0]) if inside.any() else np.nan
+
+    def widest(self, mask: np.ndarray) -> float:
+        """Width of the widest of the bands ``mask`` selects [Hz], NaN for none: the widest
+        peak an order line there can have (its order times the shaft's speed range, one
+        frequency line on each side)."""
+        return float(np.max(self.high_hz[mask] - self.low_hz[mask])) if mask.any() \
+            else np.nan
+
 
 def shaft_frequency_range(pulse_time: np.ndarray, pulses_per_rev: int) -> tuple[float, float]:
     """Slowest and fastest shaft rotation frequency of a pulse train [Hz].

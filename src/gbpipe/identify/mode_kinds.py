@@ -15,9 +15,10 @@ A stable cluster of a stabilization diagram is one of three things:
       not coherent. Otherwise it is the mode the line crosses (a line explains a band it
       dominates; a mode's random response that holds most of the band is the mode's,
       whatever line passes). A coherent cluster whose half-power band ``2 zeta f`` is
-      wider than the whole band of the measured line on it (:func:`line_width`) is the
-      mode the line crosses whatever these tests say: they see the line, and no line
-      makes a peak that wide. A cluster of another diagram on a line is a mode only where
+      wider than the whole band of the measured line on it
+      (:meth:`~gbpipe.identify.harmonic_lines.HarmonicBands.widest`) is the mode the line
+      crosses whatever these tests say: they see the line, and no line makes a peak that
+      wide. A cluster of another diagram on a line is a mode only where
       the FRF's own diagram (LSCF) holds a cluster or candidate in its band: the FRF
       from the measured input averages out what that input does not drive, while a
       subspace fit models the whole output, a line under the band's noise included;
@@ -75,7 +76,7 @@ from gbpipe.identify.harmonic_lines import HarmonicBands, order_one
 from gbpipe.identify.peak_drift import peak_drift
 
 __all__ = ["KINDS", "ALPHA", "Evidence", "resolvable_damping", "cluster_evidence",
-           "on_line", "line_width", "LINE_SHARE", "Cluster", "PairingData", "record_evidence"]
+           "LINE_SHARE", "Cluster", "PairingData", "record_evidence"]
 
 #: The kinds of a cluster.
 KINDS = ("mode", "harmonic", "spurious")
@@ -129,37 +130,6 @@ def resolvable_damping(frequency_hz: float, duration_s: float) -> float:
     return 1.0 / (2.0 * frequency_hz * duration_s)
 
 
-def _inside(frequency_hz: float, bands: HarmonicBands) -> np.ndarray:
-    """Mask of the bands ``frequency_hz`` [Hz] lies in."""
-    return (bands.low_hz <= frequency_hz) & (frequency_hz <= bands.high_hz)
-
-
-def _overlapping(frequency_hz: float, half_width: float, bands: HarmonicBands
-                 ) -> np.ndarray:
-    """Mask of the bands that overlap ``frequency_hz ± half_width`` [Hz]."""
-    return ((bands.low_hz <= frequency_hz + half_width)
-            & (bands.high_hz >= frequency_hz - half_width))
-
-
-def on_line(frequency_hz: float, bands: HarmonicBands) -> float:
-    """Order of the band ``frequency_hz`` [Hz] lies in (the lowest), NaN for none."""
-    inside = _inside(frequency_hz, bands)
-    return float(bands.order[inside][0]) if inside.any() else np.nan
-
-
-def line_width(frequency_hz: float, bands: HarmonicBands) -> float:
-    """Width of the widest band ``frequency_hz`` [Hz] lies in [Hz], NaN for none: the
-    widest peak an order line there can have (its order times the shaft's speed range,
-    one frequency line on each side)."""
-    return _widest(bands, _inside(frequency_hz, bands))
-
-
-def _widest(bands: HarmonicBands, mask: np.ndarray) -> float:
-    """Width of the widest of the bands ``mask`` selects [Hz], NaN for none."""
-    return float(np.max(bands.high_hz[mask] - bands.low_hz[mask])) if mask.any() \
-        else np.nan
-
-
 def cluster_evidence(frequency_hz: float, damping: float, outputs: Sequence[np.ndarray],
                      names: Sequence[str], fs: float, coherence_f: np.ndarray,
                      coherence: np.ndarray, resolution_hz: float, coherence_min: float,
@@ -192,8 +162,8 @@ def cluster_evidence(frequency_hz: float, damping: float, outputs: Sequence[np.n
         (:func:`gbpipe.identify.harmonic_lines.reference_angle`): a cluster on an order
         line is then a line only where the line holds its band
         (:func:`gbpipe.identify.band_signal.line_share`) or its pole is wider than the
-        line's band (:func:`line_width`: the speed range is measured); without it every
-        cluster on a line is one.
+        line's band (:meth:`~gbpipe.identify.harmonic_lines.HarmonicBands.widest`: the
+        speed range is measured); without it every cluster on a line is one.
     frf_hz : ndarray, optional
         Frequencies [Hz] of the clusters and candidates of the FRF's own diagram (LSCF)
         of the pairing, for a cluster of another diagram: on an order line, one with
@@ -228,15 +198,15 @@ def cluster_evidence(frequency_hz: float, damping: float, outputs: Sequence[np.n
     near = np.abs(coherence_f - f) <= w
     coh = float(np.max(coherence[near])) if near.any() else float(
         coherence[np.argmin(np.abs(coherence_f - f))])
-    order = on_line(f, bands)
+    order = bands.order_at(f)
     band = f"{f - w:.1f}-{f + w:.1f} Hz"
     track_band = f"{f - wt:.1f}-{f + wt:.1f} Hz"
     # a known order line inside the band makes its PDF (and its peak track, in the wider
     # band) a line's whatever the cluster: there the speed decides, not the PDF (a mode
     # beside a line stays a mode)
-    crossed = bands.order[_overlapping(f, w, bands)]
+    crossed = bands.order[bands.overlapping(f, w)]
     pdf_test = np.isfinite(order) or not crossed.size
-    drift_test = np.isfinite(order) or not np.any(_overlapping(f, wt, bands))
+    drift_test = np.isfinite(order) or not np.any(bands.overlapping(f, wt))
     facts = [f"kurtosis {kurt:.2f} in {band} of {worst} (sinusoid 1.5, Gaussian 3; a mode "
              f"of this damping gives >= {limit:.2f} with {100 * (1 - alpha):.2f} %)",
              f"peak frequency vs time in {track_band} of {drift_at}: Spearman "
@@ -255,7 +225,7 @@ def cluster_evidence(frequency_hz: float, damping: float, outputs: Sequence[np.n
     if np.isfinite(order) and angle is not None:
         # every measured line whose band holds the cluster (bands overlap where the speed
         # range is wide or a mesh order meets a shaft harmonic)
-        lines = bands.order[_inside(f, bands)]
+        lines = bands.order[bands.inside(f)]
         shares = [line_share(x - np.mean(x), fs, angle, lines,
                              1.0 / resolution_hz, p, stats.norm.isf(alpha))
                   for x, p in zip(outputs, power, strict=True)]
@@ -273,7 +243,7 @@ def cluster_evidence(frequency_hz: float, damping: float, outputs: Sequence[np.n
     # share are the line's, not the pole's (the line's own pole is another, narrow). Only
     # a measured speed bounds the line's width: the record's own line has no speed range
     # (wider than two frequency lines, so also resolved: 2 zeta f > 2 / segment > 1 / T)
-    width = line_width(f, bands)
+    width = bands.widest(bands.inside(f))
     # the FRF averages out what the measured input does not drive (an order line): a
     # pole of the output's fit that the FRF's diagram does not hold is not a mode of it
     in_frf = frf_hz is None or bool(np.any(np.abs(np.asarray(frf_hz) - f) <= w))
@@ -282,7 +252,7 @@ def cluster_evidence(frequency_hz: float, damping: float, outputs: Sequence[np.n
     crossing = (angle is not None and bool(2.0 * zeta * f > width)  # NaN: on no line
                 and coh >= coherence_min and in_frf)
     if crossing:
-        on = ", ".join(f"{k:.4g}" for k in bands.order[_inside(f, bands)])
+        on = ", ".join(f"{k:.4g}" for k in bands.order[bands.inside(f)])
         facts.insert(0, f"half-power band 2 zeta f = {2 * zeta * f:.2f} Hz, wider than the "
                         f"{width:.2f} Hz band of the line(s) on it")
         kind, why = "mode", (f"a mode that order(s) {on} of {bands.source} cross: its pole "
@@ -379,7 +349,7 @@ def record_evidence(clusters: Sequence[Cluster], data: Sequence[PairingData],
                       if e.kind == "harmonic"])
     own = order_one(lines, orders, resolution_hz, n_harmonics, f_max, speeds)
     for k, c in enumerate(clusters):
-        order = on_line(c.frequency_hz, own)
+        order = own.order_at(c.frequency_hz)
         if np.isfinite(order):
             if ev[k].kind != "harmonic":
                 text = f"order {order:.4g} of {own.source}; " + ev[k].text.split("; ", 1)[1]
@@ -394,7 +364,7 @@ def record_evidence(clusters: Sequence[Cluster], data: Sequence[PairingData],
 def _wider_than_lines(c: Cluster, bands: HarmonicBands, resolution_hz: float) -> bool:
     """Whether lines of ``bands`` lie in the cluster's band (:func:`cluster_evidence`) and
     its half-power band ``2 zeta f`` is wider than each of their bands (the widest peak
-    a line can make: :func:`line_width`)."""
+    a line can make: :meth:`~gbpipe.identify.harmonic_lines.HarmonicBands.widest`)."""
     f = c.frequency_hz
-    widest = _widest(bands, _overlapping(f, _half_width(f, c.damping, resolution_hz), bands))
+    widest = bands.widest(bands.overlapping(f, _half_width(f, c.damping, resolution_hz)))
     return bool(2.0 * c.damping * f > widest)  # NaN (no line in the band): False
