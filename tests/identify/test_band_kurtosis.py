@@ -78,7 +78,7 @@ def test_a_line_outside_the_band_is_read_past_and_one_inside_is_not(f0, zeta, of
     # the check reads the band itself: the mode's power through the steeper filter
     # (Welch through its gain) and a Gaussian statistic above the limit
     rngs = np.random.default_rng(0), np.random.default_rng(1)
-    read = band_statistic(x, FS, f0, zeta, w, ALPHA, *rngs)
+    read = band_statistic(x, FS, f0, zeta, w, ALPHA, *rngs, 1 / RESOLUTION)
     assert read.kurtosis > read.limit and abs(read.kurtosis - 3) < 0.35, read
     assert bool(read.note) == (read.order != FILTER_ORDER)
     if read.note:  # the order-4 reading was a sinusoid's: a steeper filter was read
@@ -99,7 +99,7 @@ def test_a_line_outside_the_band_is_read_past_and_one_inside_is_not(f0, zeta, of
     # a line inside the band (at the cluster, 10 dB over the band) keeps its power
     # through every filter: read as the sinusoid it is, by the order-4 filter alone
     line = 2 * np.sqrt(10 * own) * np.sin(2 * np.pi * f0 * t)
-    read = band_statistic(mode + line, FS, f0, zeta, w, ALPHA, *rngs)
+    read = band_statistic(mode + line, FS, f0, zeta, w, ALPHA, *rngs, 1 / RESOLUTION)
     assert read.kurtosis < read.limit and read.order == FILTER_ORDER and read.note == ""
     # and beside the leaking line, through whichever filter reads the band
     ev = cluster_evidence(f0, zeta, [x + line], ["y"], FS, f, np.ones_like(f), RESOLUTION,

@@ -12,9 +12,9 @@ from scipy import signal, stats
 
 from gbpipe.config import load, merge
 from gbpipe.errors import DataError
-from gbpipe.identify import band_kurtosis, mode_kinds, modes_table_rows, record_modes
+from gbpipe.identify import band_kurtosis, modes_table_rows, record_kinds, record_modes
 from gbpipe.identify.band_kurtosis import kurtosis_limit, kurtosis_statistic
-from gbpipe.identify.band_signal import band_envelope, line_share
+from gbpipe.identify.band_signal import band_envelope, band_peak, line_share
 from gbpipe.identify.harmonic_lines import (
     HarmonicBands,
     harmonic_bands,
@@ -325,34 +325,89 @@ def test_order_one_is_the_line_whose_multiples_hold_the_others():
 
 
 def test_a_mode_whose_band_holds_a_line_of_the_records_own_family_is_a_mode():
-    """No speed measured: the lines at orders 1, 2 and 7 of an 11 Hz shaft, and a 5 % mode
-    at 72 Hz whose band (twice its half-power band, 64.8-79.2 Hz) holds the order-7 line
-    at 77 Hz with ten times the mode's power there. Judged alone, the line makes the
-    mode's band a sinusoid's; once the record's own order-1 line places order 7 in it,
-    the cluster, whose half-power band (7.2 Hz) no line of the family can make, is judged
-    as with a measured speed: the mode."""
+    """No speed measured: the lines at orders 1, 2 and 7 of a 10.5 Hz shaft, and a 5 % mode
+    at 72 Hz whose half-power band (68.4-75.6 Hz) holds the order-7 line at 73.5 Hz with
+    ten times the mode's power there. Judged alone, the line makes the mode's band a
+    sinusoid's, and one the pole's half-power band holds; once the record's own order-1
+    line places order 7 in it, the cluster, whose half-power band (7.2 Hz) no line of the
+    family can make, is judged as with a measured speed: the mode."""
     rng = np.random.default_rng(12)
     n = int(40 * FS)
     t = np.arange(n) / FS
     mode = _sdof(72.0, 0.05, n, rng)
     z, _ = band_envelope(mode, FS, 72.0, 7.2)
     band = np.mean(np.abs(z) ** 2)  # the mode's band power (a sinusoid a: a^2 / 4)
-    y = mode + sum(2 * np.sqrt(10 * band) * np.sin(2 * np.pi * 11.0 * k * t + k)
+    y = mode + sum(2 * np.sqrt(10 * band) * np.sin(2 * np.pi * 10.5 * k * t + k)
                    for k in (1, 2, 7))
     y = y + 0.01 * y.std() * rng.standard_normal(n)
     f = np.linspace(0, FS / 2, 1001)
-    data = [mode_kinds.PairingData(y[:, None], ["y"], FS, f, np.ones_like(f))]
-    clusters = [mode_kinds.Cluster(0, fk, 1e-4) for fk in (11.0, 22.0, 77.0)]
-    clusters.append(mode_kinds.Cluster(0, 72.0, 0.05))
+    data = [record_kinds.PairingData(y[:, None], ["y"], FS, f, np.ones_like(f))]
+    clusters = [record_kinds.Cluster(0, fk, 1e-4) for fk in (10.5, 21.0, 73.5)]
+    clusters.append(record_kinds.Cluster(0, 72.0, 0.05))
     alone = cluster_evidence(72.0, 0.05, [y], ["y"], FS, f, np.ones_like(f), 0.5, 0.6,
                              NO_LINES, np.random.default_rng(0))
     assert alone.kind == "harmonic" and "sinusoid" in alone.text  # the line holds it
-    ev, own = mode_kinds.record_evidence(clusters, data, NO_LINES, [7.0], 0.5, 0.6, 2,
+    ev, own = record_kinds.record_evidence(clusters, data, NO_LINES, [7.0], 0.5, 0.6, 2,
                                          400.0, 0)
-    assert own.shaft_hz[0] == pytest.approx(11.0, abs=0.1) and 7.0 in own.order
+    assert own.shaft_hz[0] == pytest.approx(10.5, abs=0.1) and 7.0 in own.order
     assert [e.kind for e in ev] == ["harmonic"] * 3 + ["mode"], [e.text for e in ev]
     assert "the line in its band sets its PDF" in ev[3].text
     assert "order line(s) 7: the PDF test does not decide" in ev[3].text
+
+
+def test_band_peak_spans_a_steady_line_and_a_swept_one():
+    """The strongest peak of a band signal at half power, against closed forms: a steady
+    line spans the Hann window's half-power width, 1.44 frequency lines, about its
+    frequency; a line swept linearly over 3 Hz spans its sweep (the segments' average of
+    a linear chirp is the window's power kernel swept over a flat density: by symmetry
+    half its plateau at the sweep's ends). Both 20 dB over white noise in a 10 Hz band,
+    2 s segments (0.5 Hz)."""
+    rng = np.random.default_rng(21)
+    t = np.arange(int(60 * FS)) / FS
+    noise = rng.standard_normal(t.size)
+    steady = np.sin(2 * np.pi * 102.3 * t)
+    swept = signal.chirp(t, 98.5, t[-1], 101.5)
+    for line, lo, hi in ((steady, 2.3 - 0.72 / 2, 2.3 + 0.72 / 2), (swept, -1.5, 1.5)):
+        power = np.mean(line ** 2)
+        x = line + np.sqrt(power / 100 * FS / 20) * noise  # 20 dB over the noise in 10 Hz
+        z, fs_z = band_envelope(x, FS, 100.0, 10.0)
+        low, high = band_peak(z, fs_z, 2.0)
+        # edges on the 4x zero-padded grid (0.125 Hz): half a grid step each side
+        assert low == pytest.approx(lo, abs=0.2), (low, high)
+        assert high == pytest.approx(hi, abs=0.2), (low, high)
+
+
+CASES = np.random.default_rng(22)
+#: Random modes (80-250 Hz, damping 2-6 %) with a line in the outer half of their band,
+#: 1.45-1.85 half-power half-widths off, and 10 dB over the mode's power in the band.
+BESIDE = [(CASES.uniform(80, 250), CASES.uniform(0.02, 0.06), CASES.uniform(1.45, 1.85)
+           * CASES.choice([-1, 1]), seed) for seed in range(4)]
+
+
+@pytest.mark.parametrize(("f0", "zeta", "offset", "seed"), BESIDE)
+def test_a_line_beside_the_pole_in_its_band_is_not_the_poles_sinusoid(f0, zeta, offset,
+                                                                       seed):
+    """A mode of ``f0``, ``zeta`` (scipy) and a steady line ``offset`` half-power
+    half-widths ``zeta f0`` from it, inside the cluster's band (twice the half-power
+    band), with ten times the mode's band power: the band reads as a sinusoid (closed
+    form: kurtosis 3 - 1.5 (10 / 11)^2 = 1.76), but the sinusoid is the line's, beside
+    the pole. No speed is measured: the cluster is the mode the record holds. The same
+    line at a fifth of a half-width from the pole is the pole's sinusoid: a line."""
+    rng = np.random.default_rng(seed)
+    n = int(40 * FS)
+    t = np.arange(n) / FS
+    mode = _sdof(f0, zeta, n, rng)
+    w = 2 * zeta * f0
+    z, _ = band_envelope(mode, FS, f0, w)
+    amp = 2 * np.sqrt(10 * np.mean(np.abs(z) ** 2))
+    f = np.linspace(0, FS / 2, 1001)
+    for at, kind in ((offset, "mode"), (0.2 * np.sign(offset), "harmonic")):
+        y = mode + amp * np.sin(2 * np.pi * (f0 + at * zeta * f0) * t + 0.5)
+        ev = cluster_evidence(f0, zeta, [y], ["y"], FS, f, np.ones_like(f), 0.5, 0.6,
+                              NO_LINES, np.random.default_rng(seed))
+        assert ev.kurtosis < ev.kurtosis_limit and abs(ev.kurtosis - 1.76) < 0.3, ev.text
+        assert ev.kind == kind and ev.sinusoid == (kind == "harmonic"), ev.text
+        assert ("beside the pole's half-power band" in ev.text) == (kind == "mode")
 
 
 # -- records with one known mode and known lines, with a tacho, a speed signal, or none --

@@ -16,7 +16,7 @@ from typing import NamedTuple
 import numpy as np
 from scipy import stats
 
-from gbpipe.identify.band_signal import FILTER_ORDER, band_envelope
+from gbpipe.identify.band_signal import FILTER_ORDER, band_envelope, band_peak
 
 __all__ = ["DRAWN_SAMPLES", "CHECK_ORDERS", "OWN_POWER", "kurtosis_statistic",
            "kurtosis_limit", "BandStatistic", "band_statistic"]
@@ -92,6 +92,10 @@ class BandStatistic(NamedTuple):
         Order of the low-pass whose band signal was read.
     note : str
         Why a steeper filter was read (empty where the order-4 band signal was).
+    peak_hz : tuple of float
+        Edges of the strongest spectral peak of the band signal read, at half its power,
+        as offsets from the band's centre [Hz] (:func:`band_peak`): where the sinusoid of
+        a band that reads as one lies.
     """
 
     power: float
@@ -99,11 +103,12 @@ class BandStatistic(NamedTuple):
     limit: float
     order: int
     note: str
+    peak_hz: tuple[float, float]
 
 
 def band_statistic(x: np.ndarray, fs: float, f0: float, damping: float, half_width: float,
-                   alpha: float, rng: np.random.Generator, check_rng: np.random.Generator
-                   ) -> BandStatistic:
+                   alpha: float, rng: np.random.Generator, check_rng: np.random.Generator,
+                   segment: float) -> BandStatistic:
     """The band kurtosis of ``x`` about ``f0`` and its limit, read where the band holds it.
 
     The band signal of the order-4 low-pass is read first. Where it reads as a sinusoid
@@ -127,6 +132,9 @@ def band_statistic(x: np.ndarray, fs: float, f0: float, damping: float, half_wid
     rng, check_rng : numpy.random.Generator
         Draws of the order-4 limit, and of the steeper filters' (apart, so that a check
         leaves the draws of the other clusters as they are).
+    segment : float
+        Segment of the band signal's spectrum [s] (:func:`band_peak`): the record's
+        frequency resolution.
 
     Returns
     -------
@@ -138,7 +146,7 @@ def band_statistic(x: np.ndarray, fs: float, f0: float, damping: float, half_wid
     z, fs_z = band_envelope(x, fs, f0, half_width)
     power, k = float(np.mean(np.abs(z) ** 2)), float(kurtosis_statistic(z))
     limit = kurtosis_limit(f0, damping, half_width, fs_z, z.size, alpha, rng)
-    first, used, note = power, FILTER_ORDER, ""
+    first, used, note, read = power, FILTER_ORDER, "", (z, fs_z)
     for order in CHECK_ORDERS:
         # NaN (a band without power) reads as no sinusoid; a record too short for the
         # steeper filter's padding (3 (order + 1) samples) keeps the reading it has
@@ -148,11 +156,11 @@ def band_statistic(x: np.ndarray, fs: float, f0: float, damping: float, half_wid
         kept = float(np.mean(np.abs(zs) ** 2))
         if not kept < OWN_POWER * power:
             break
-        power, k, used = kept, float(kurtosis_statistic(zs)), order
+        power, k, used, read = kept, float(kurtosis_statistic(zs)), order, (zs, fs_s)
         limit = kurtosis_limit(f0, damping, half_width, fs_s, zs.size, alpha, check_rng,
                                order)
         ratio = f"{first / kept:.3g}" if kept > 0 else "inf"
         note = (f"a leak from outside the band held its order-{FILTER_ORDER} signal "
                 f"({ratio} times the power an order-{order} filter keeps): read through "
                 f"the order-{order} filter")
-    return BandStatistic(power, k, limit, used, note)
+    return BandStatistic(power, k, limit, used, note, band_peak(*read, segment))

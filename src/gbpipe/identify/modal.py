@@ -43,8 +43,9 @@ from gbpipe.identify.harmonic_lines import (
     speed_frequency_range,
 )
 from gbpipe.identify.modal_diagrams import Diagram, diagrams, order_range, zoom_bands
-from gbpipe.identify.mode_kinds import Cluster, Evidence, PairingData, record_evidence
+from gbpipe.identify.mode_kinds import Evidence
 from gbpipe.identify.prepare import ConditionedRecord
+from gbpipe.identify.record_kinds import Cluster, PairingData, record_evidence
 from gbpipe.identify.reference import Reference, nonparametric_reference
 from gbpipe.io import longest_segment
 from gbpipe.lti import pad

@@ -8,7 +8,8 @@ A stable cluster of a stabilization diagram is one of three things:
 
     * the **speed**: the cluster lies on an order line of a measured speed
       (:mod:`gbpipe.identify.harmonic_lines`), or of the record's own order-1 line
-      (:func:`gbpipe.identify.harmonic_lines.order_one`). With a measured speed the line
+      (:func:`gbpipe.identify.harmonic_lines.order_one`, placed by
+      :func:`gbpipe.identify.record_kinds.record_evidence`). With a measured speed the line
       itself is measured too (:func:`gbpipe.identify.band_signal.line_share`): the
       cluster is a line when the upper bound of the lines' share of its band's power
       reaches ``LINE_SHARE``, or one of the tests below calls it a line, or its band is
@@ -36,7 +37,12 @@ A stable cluster of a stabilization diagram is one of three things:
       drawn by Monte Carlo on the band's own correlation, not a tuned number. A band
       that reads as a sinusoid is read again through steeper filters: where it keeps
       under half its power, a strong line outside the band held it
-      (:func:`gbpipe.identify.band_kurtosis.band_statistic`);
+      (:func:`gbpipe.identify.band_kurtosis.band_statistic`). The sinusoid is the pole's
+      only where its band signal's strongest peak (:func:`gbpipe.identify.band_signal.
+      band_peak`) meets the pole's half-power band ``f ± max(zeta f, 1 / segment)``: the
+      cluster's band spans that band twice, and a line in the outer half is another's.
+      A band that holds a lighter mode is judged against that mode's limit
+      (:mod:`gbpipe.identify.record_kinds`);
     * the **drift**: a line follows its shaft's speed, so the peak near the cluster
       moves with time along a monotonic track (a run-up, a slow drift: the line sweeps
       through the band, its PDF there bursty); a mode's peak jitters at random.
@@ -64,7 +70,7 @@ docs/modal.md, "Criteria".
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Sequence
 from typing import NamedTuple
 
 import numpy as np
@@ -72,11 +78,11 @@ from scipy import stats
 
 from gbpipe.identify.band_kurtosis import band_statistic
 from gbpipe.identify.band_signal import line_share
-from gbpipe.identify.harmonic_lines import HarmonicBands, order_one
+from gbpipe.identify.harmonic_lines import HarmonicBands
 from gbpipe.identify.peak_drift import peak_drift
 
-__all__ = ["KINDS", "ALPHA", "Evidence", "resolvable_damping", "cluster_evidence",
-           "LINE_SHARE", "Cluster", "PairingData", "record_evidence"]
+__all__ = ["KINDS", "ALPHA", "Evidence", "band_half_width", "resolvable_damping",
+           "cluster_evidence", "LINE_SHARE"]
 
 #: The kinds of a cluster.
 KINDS = ("mode", "harmonic", "spurious")
@@ -107,6 +113,8 @@ class Evidence(NamedTuple):
         Order of the line the cluster lies on [1]; NaN for none.
     drifts : bool
         Whether the peak near the cluster drifts with time (the drift test's line).
+    sinusoid : bool
+        Whether the PDF test read the pole as a sinusoid (the test's line).
     """
 
     kind: str
@@ -116,11 +124,13 @@ class Evidence(NamedTuple):
     coherence: float
     line_order: float
     drifts: bool
+    sinusoid: bool
 
 
-def _half_width(frequency_hz: float, damping: float, resolution_hz: float) -> float:
-    # the band around a cluster: its half-power band twice over, at least one frequency
-    # line of the estimate on each side (a line cannot be located better than that)
+def band_half_width(frequency_hz: float, damping: float, resolution_hz: float) -> float:
+    """Half-width [Hz] of a cluster's band: its half-power band ``2 zeta f`` twice over, at
+    least one frequency line ``resolution_hz`` of the estimate on each side (a line cannot
+    be located better than that)."""
     return max(resolution_hz, 2.0 * damping * frequency_hz)
 
 
@@ -134,8 +144,8 @@ def cluster_evidence(frequency_hz: float, damping: float, outputs: Sequence[np.n
                      names: Sequence[str], fs: float, coherence_f: np.ndarray,
                      coherence: np.ndarray, resolution_hz: float, coherence_min: float,
                      bands: HarmonicBands, rng: np.random.Generator,
-                     angle: np.ndarray | None = None, frf_hz: np.ndarray | None = None
-                     ) -> Evidence:
+                     angle: np.ndarray | None = None, frf_hz: np.ndarray | None = None,
+                     lighter: tuple[float, float] | None = None) -> Evidence:
     """The kind of one cluster and why (module docstring).
 
     Parameters
@@ -168,12 +178,21 @@ def cluster_evidence(frequency_hz: float, damping: float, outputs: Sequence[np.n
         Frequencies [Hz] of the clusters and candidates of the FRF's own diagram (LSCF)
         of the pairing, for a cluster of another diagram: on an order line, one with
         none of them in its band is the line's (module docstring). None: not asked.
+    lighter : tuple of float, optional
+        Frequency [Hz] and damping [1] of a lighter mode in the cluster's band: the PDF
+        test's hypothesis is then that mode's half-power bandwidth, whose longer
+        correlation makes the band's statistic scatter more (:func:`record_evidence`).
+        None: the cluster's own.
     """
     f, zeta = float(frequency_hz), float(damping)
     outputs = [np.asarray(x, float) for x in outputs]
-    w = _half_width(f, zeta, resolution_hz)
+    w = band_half_width(f, zeta, resolution_hz)
     duration = outputs[0].size / fs
     zeta_res = resolvable_damping(f, duration)
+    # the hypothesis' half-power bandwidth: the cluster's, or a lighter mode's in its band
+    zeta_null = zeta if lighter is None else lighter[1] * lighter[0] / f
+    null = ("this damping" if lighter is None else
+            f"the lighter mode at {lighter[0]:.1f} Hz (damping {lighter[1]:.4f}) in the band")
     alpha = ALPHA / len(outputs)
     kurt, limit, worst = np.inf, np.nan, ""
     drift, drift_at, passes = None, "", False
@@ -183,11 +202,25 @@ def cluster_evidence(frequency_hz: float, damping: float, outputs: Sequence[np.n
     power = []  # of each output's band signal
     leaks = []
     check_rng = rng.spawn(1)[0]
+    # a band's sinusoid is the pole's where its peak meets the pole's half-power band: a
+    # line beside the pole (a cluster's band spans that band twice) is another's
+    tol = max(zeta * f, resolution_hz)
+    at_pole, beside = False, []
     for x, name in zip(outputs, names, strict=True):
-        read = band_statistic(x, fs, f, max(zeta, zeta_res), w, alpha, rng, check_rng)
+        read = band_statistic(x, fs, f, max(zeta_null, zeta_res), w, alpha, rng, check_rng,
+                              1.0 / resolution_hz)
         power.append(read.power)
         if read.note:
             leaks.append(f"{name}: {read.note}")
+        if read.kurtosis < read.limit:
+            lo, hi = read.peak_hz
+            if lo <= tol and hi >= -tol:
+                at_pole = True
+            else:
+                beside.append(f"{name}'s sinusoid at {f + lo:.1f}-{f + hi:.1f} Hz lies "
+                              f"beside the pole's half-power band {f - tol:.1f}-"
+                              f"{f + tol:.1f} Hz: another's line, the PDF test does not "
+                              "decide")
         if read.kurtosis - read.limit < kurt - (limit if np.isfinite(limit) else 0.0):
             kurt, limit, worst = read.kurtosis, read.limit, name
         d = peak_drift(x, fs, f, wt, 1.0 / resolution_hz)
@@ -208,18 +241,18 @@ def cluster_evidence(frequency_hz: float, damping: float, outputs: Sequence[np.n
     pdf_test = np.isfinite(order) or not crossed.size
     drift_test = np.isfinite(order) or not np.any(bands.overlapping(f, wt))
     facts = [f"kurtosis {kurt:.2f} in {band} of {worst} (sinusoid 1.5, Gaussian 3; a mode "
-             f"of this damping gives >= {limit:.2f} with {100 * (1 - alpha):.2f} %)",
+             f"of {null} gives >= {limit:.2f} with {100 * (1 - alpha):.2f} %)",
              f"peak frequency vs time in {track_band} of {drift_at}: Spearman "
              f"{drift.rho:.2f}, p {drift.p:.1e} over {drift.n} segments, track "
              f"{drift.low_hz:.1f}-{drift.high_hz:.1f} Hz"
              + ("" if passes else " (does not pass the cluster: a peak beside it)"),
-             *leaks,
+             *leaks, *beside,
              f"damping {zeta:.4f} (the record resolves >= {zeta_res:.5f})",
              *([] if pdf_test else [f"the band holds order line(s) "
                                     f"{', '.join(f'{k:.4g}' for k in crossed)}: the PDF "
                                     "test does not decide"]),
              f"coherence <= {coh:.2f} in {band}"]
-    sinusoid = kurt < limit and pdf_test
+    sinusoid = at_pole and pdf_test
     drifts = passes and drift.p < alpha and drift_test
     share = bound = np.nan
     if np.isfinite(order) and angle is not None:
@@ -278,93 +311,9 @@ def cluster_evidence(frequency_hz: float, damping: float, outputs: Sequence[np.n
                              f"line has under {LINE_SHARE:g} times the power in its band, "
                              "which is Gaussian, resolved and coherent")
     else:
-        kind, why = "mode", ("Gaussian in its band, resolved, coherent" if pdf_test else
+        gaussian = pdf_test and not kurt < limit  # else a line in the band sets the PDF
+        kind, why = "mode", ("Gaussian in its band, resolved, coherent" if gaussian else
                              "resolved and coherent (the line in its band sets its PDF)") + (
             f", on no order line of {bands.source}" if bands.source else "")
     return Evidence(kind, f"{why}; " + "; ".join(facts), kurt, limit, coh, order,
-                    bool(drifts))
-
-
-class Cluster(NamedTuple):
-    """One cluster to judge: its pairing (index), frequency [Hz], damping [1] and, for a
-    cluster of a diagram other than the FRF's, ``frf_hz`` (:func:`cluster_evidence`)."""
-
-    pairing: int
-    frequency_hz: float
-    damping: float
-    frf_hz: np.ndarray | None = None
-
-
-class PairingData(NamedTuple):
-    """What the tests read of one pairing: its conditioned outputs (``y`` (N, ny), names,
-    rate ``fs`` [Hz]), the highest coherence over its FRF elements [1] per frequency
-    [Hz] of its nonparametric estimate, and the reference shaft's angle at the outputs'
-    samples [rad] (None: no speed measured)."""
-
-    y: np.ndarray
-    names: Sequence[str]
-    fs: float
-    frequency: np.ndarray
-    coherence: np.ndarray
-    angle: np.ndarray | None = None
-
-
-def record_evidence(clusters: Sequence[Cluster], data: Sequence[PairingData],
-                    bands: HarmonicBands, orders: Sequence[float], resolution_hz: float,
-                    coherence_min: float, n_harmonics: int, f_max: float, seed: int,
-                    speeds: Mapping[str, tuple[float, float]] | None = None
-                    ) -> tuple[list[Evidence], HarmonicBands]:
-    """The evidence of every cluster of a record, and the order lines used.
-
-    With a measured speed (``bands`` not empty) each cluster is judged once
-    (:func:`cluster_evidence`). Without one, the clusters the PDF or damping test found
-    to be sinusoids give the record's own order-1 line (:func:`order_one`), the user's
-    ``orders`` scale from it, and any other cluster on those lines is relabelled
-    ``harmonic``. A cluster off those lines that the PDF test called a line, whose peak
-    does not drift, and whose half-power band ``2 zeta f`` is wider than every one of
-    those lines' bands in its band (no line makes a peak that wide), is judged again with
-    them, as with a measured speed (no angle): the line in its band, not the cluster,
-    made its PDF a sinusoid's.
-
-    Parameters
-    ----------
-    seed : int
-        Seed of the Monte Carlo draws (the config's root ``seed``).
-    speeds : mapping str -> (float, float), optional
-        Speed signals no ``shaft_order`` places -> their shaft's frequency range [Hz]:
-        candidates for order 1 (:func:`order_one`).
-    """
-    rng = np.random.default_rng(seed)
-
-    def judge(c: Cluster, lines: HarmonicBands, angle: np.ndarray | None) -> Evidence:
-        d = data[c.pairing]
-        return cluster_evidence(c.frequency_hz, c.damping, list(d.y.T), d.names, d.fs,
-                                d.frequency, d.coherence, resolution_hz, coherence_min,
-                                lines, rng, angle, c.frf_hz)
-
-    ev = [judge(c, bands, data[c.pairing].angle) for c in clusters]
-    if bands.source:
-        return ev, bands
-    lines = np.array([c.frequency_hz for c, e in zip(clusters, ev, strict=True)
-                      if e.kind == "harmonic"])
-    own = order_one(lines, orders, resolution_hz, n_harmonics, f_max, speeds)
-    for k, c in enumerate(clusters):
-        order = own.order_at(c.frequency_hz)
-        if np.isfinite(order):
-            if ev[k].kind != "harmonic":
-                text = f"order {order:.4g} of {own.source}; " + ev[k].text.split("; ", 1)[1]
-                ev[k] = ev[k]._replace(kind="harmonic", text=text)
-            ev[k] = ev[k]._replace(line_order=order)
-        elif (ev[k].kind == "harmonic" and ev[k].kurtosis < ev[k].kurtosis_limit
-              and not ev[k].drifts and _wider_than_lines(c, own, resolution_hz)):
-            ev[k] = judge(c, own, None)  # the record's own lines: no angle measured
-    return ev, own
-
-
-def _wider_than_lines(c: Cluster, bands: HarmonicBands, resolution_hz: float) -> bool:
-    """Whether lines of ``bands`` lie in the cluster's band (:func:`cluster_evidence`) and
-    its half-power band ``2 zeta f`` is wider than each of their bands (the widest peak
-    a line can make: :meth:`~gbpipe.identify.harmonic_lines.HarmonicBands.widest`)."""
-    f = c.frequency_hz
-    widest = bands.widest(bands.overlapping(f, _half_width(f, c.damping, resolution_hz)))
-    return bool(2.0 * c.damping * f > widest)  # NaN (no line in the band): False
+                    bool(drifts), bool(sinusoid))
