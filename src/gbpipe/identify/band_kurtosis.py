@@ -16,7 +16,7 @@ from typing import NamedTuple
 import numpy as np
 from scipy import stats
 
-from gbpipe.identify.band_signal import FILTER_ORDER, band_envelope, band_peak
+from gbpipe.identify.band_signal import FILTER_ORDER, band_envelope, band_spectrum
 
 __all__ = ["DRAWN_SAMPLES", "CHECK_ORDERS", "OWN_POWER", "kurtosis_statistic",
            "kurtosis_limit", "BandStatistic", "band_statistic"]
@@ -92,10 +92,11 @@ class BandStatistic(NamedTuple):
         Order of the low-pass whose band signal was read.
     note : str
         Why a steeper filter was read (empty where the order-4 band signal was).
-    peak_hz : tuple of float
-        Edges of the strongest spectral peak of the band signal read, at half its power,
-        as offsets from the band's centre [Hz] (:func:`band_peak`): where the sinusoid of
-        a band that reads as one lies.
+    spectrum : tuple of ndarray or None
+        The two-sided PSD of the band signal read, where it reads as a sinusoid
+        (statistic under the limit): offsets from the band's centre [Hz] and PSD
+        (:func:`~gbpipe.identify.band_signal.band_spectrum`), to tell where the sinusoid
+        lies; else None.
     """
 
     power: float
@@ -103,7 +104,7 @@ class BandStatistic(NamedTuple):
     limit: float
     order: int
     note: str
-    peak_hz: tuple[float, float]
+    spectrum: tuple[np.ndarray, np.ndarray] | None
 
 
 def band_statistic(x: np.ndarray, fs: float, f0: float, damping: float, half_width: float,
@@ -133,8 +134,9 @@ def band_statistic(x: np.ndarray, fs: float, f0: float, damping: float, half_wid
         Draws of the order-4 limit, and of the steeper filters' (apart, so that a check
         leaves the draws of the other clusters as they are).
     segment : float
-        Segment of the band signal's spectrum [s] (:func:`band_peak`): the record's
-        frequency resolution.
+        Segment of the band signal's spectrum [s]
+        (:func:`~gbpipe.identify.band_signal.band_spectrum`): the record's frequency
+        resolution.
 
     Returns
     -------
@@ -163,4 +165,5 @@ def band_statistic(x: np.ndarray, fs: float, f0: float, damping: float, half_wid
         note = (f"a leak from outside the band held its order-{FILTER_ORDER} signal "
                 f"({ratio} times the power an order-{order} filter keeps): read through "
                 f"the order-{order} filter")
-    return BandStatistic(power, k, limit, used, note, band_peak(*read, segment))
+    spectrum = band_spectrum(*read, segment) if k < limit else None
+    return BandStatistic(power, k, limit, used, note, spectrum)

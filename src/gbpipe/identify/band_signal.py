@@ -2,8 +2,8 @@
 
 :func:`band_envelope` demodulates a signal at a band's centre and low-passes it to the
 band's half-width: the complex band signal whose statistics the harmonic tests of
-:mod:`gbpipe.identify.mode_kinds` read (its kurtosis, its power, where its strongest peak
-lies: :func:`band_peak`). :func:`line_share`
+:mod:`gbpipe.identify.mode_kinds` read (its kurtosis, its power, its spectrum:
+:func:`band_spectrum`). :func:`line_share`
 measures angle-locked order lines with the shaft's angle and gives their power over the
 band's, with an upper bound: how much of a cluster's band the measured lines hold
 (docs/modal.md, "Criteria").
@@ -17,7 +17,7 @@ from typing import NamedTuple
 import numpy as np
 from scipy import signal
 
-__all__ = ["FILTER_ORDER", "LOCKED_SPAN", "band_envelope", "band_peak", "LineShare",
+__all__ = ["FILTER_ORDER", "LOCKED_SPAN", "band_envelope", "band_spectrum", "LineShare",
            "line_share"]
 
 #: Order of the Butterworth low-pass of the complex demodulation (applied forward and
@@ -79,14 +79,15 @@ def band_envelope(x: np.ndarray, fs: float, f0: float, half_width: float,
     return z[edge:x.size - edge:step], fs / step
 
 
-def band_peak(z: np.ndarray, fs_z: float, segment: float) -> tuple[float, float]:
-    """The strongest spectral peak of the band signal ``z``, from edge to edge at half power.
+def band_spectrum(z: np.ndarray, fs_z: float, segment: float
+                  ) -> tuple[np.ndarray, np.ndarray]:
+    """The two-sided Welch PSD of the band signal ``z``, about the band's centre.
 
-    Welch's two-sided PSD of ``z`` (Hann segments of ``segment`` [s], the record's
-    frequency resolution, 4x zero-padded; the whole signal where it is shorter): the
-    frequencies about its maximum down to half of it. A steady line spans the Hann main
-    lobe's half-power width (1.44 frequency lines); a line that follows a drifting speed
-    spans its sweep, which the segments' average holds.
+    Hann segments of ``segment`` [s] (the record's frequency resolution; the whole
+    signal where it is shorter), 4x zero-padded, no detrending (a line at the centre is
+    a constant ``z``). A steady line spans the Hann window's half-power width (1.44
+    frequency lines); a line that follows a drifting speed spans its sweep, which the
+    segments' average holds.
 
     Parameters
     ----------
@@ -99,21 +100,16 @@ def band_peak(z: np.ndarray, fs_z: float, segment: float) -> tuple[float, float]
 
     Returns
     -------
-    low, high : float
-        The peak's edges [Hz], as offsets from the band's centre.
+    offset : ndarray
+        Frequencies as offsets from the band's centre, ascending [Hz].
+    psd : ndarray
+        The PSD there [``z``'s unit squared per Hz].
     """
     n = min(z.size, max(int(round(segment * fs_z)), 1))
     f, pxx = signal.welch(z, fs_z, nperseg=n, nfft=4 * n, detrend=False,
                           return_onesided=False)
     order = np.argsort(f)
-    f, pxx = f[order], pxx[order]
-    top = int(np.argmax(pxx))
-    below = pxx < 0.5 * pxx[top]
-    left = np.flatnonzero(below[:top])
-    right = np.flatnonzero(below[top:])
-    lo = f[left[-1] + 1] if left.size else f[0]
-    hi = f[top + right[0] - 1] if right.size else f[-1]
-    return float(lo), float(hi)
+    return f[order], pxx[order]
 
 
 class LineShare(NamedTuple):

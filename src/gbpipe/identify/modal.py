@@ -295,10 +295,13 @@ def _dataset(s: Mapping[str, Any], names: list[str], results: list[dict[str, Any
         "mode_kind": (dims_c, kind, {"units": one, "long_name":
                                      "mode, harmonic (an order line) or spurious (noise)"}),
         "mode_evidence": (dims_c, why, {"units": one, "long_name": "why the kind, in words"}),
-        "mode_kurtosis": (dims_c, cl["k"], {"units": one, "long_name": "lowest kurtosis of "
-                                            "the outputs in the cluster's band"}),
+        "mode_kurtosis": (dims_c, cl["k"], {"units": one, "long_name": "kurtosis in the "
+                                            "cluster's band of the output furthest under "
+                                            "its limit (of those whose sinusoid is the "
+                                            "pole's, where any)"}),
         "mode_kurtosis_limit": (dims_c, cl["kl"], {"units": one, "long_name": "lowest "
-                                                   "kurtosis a mode of the cluster gives"}),
+                                                   "kurtosis a mode of the cluster (or a "
+                                                   "lighter one in its band) gives there"}),
         "mode_coherence": (dims_c, cl["c"], {"units": one, "long_name": "highest coherence "
                                              "in the cluster's band"}),
         "mode_line_order": (dims_c, cl["o"], {"units": one, "long_name": "order of the "

@@ -38,9 +38,10 @@ A stable cluster of a stabilization diagram is one of three things:
       that reads as a sinusoid is read again through steeper filters: where it keeps
       under half its power, a strong line outside the band held it
       (:func:`gbpipe.identify.band_kurtosis.band_statistic`). The sinusoid is the pole's
-      only where its band signal's strongest peak (:func:`gbpipe.identify.band_signal.
-      band_peak`) meets the pole's half-power band ``f ± max(zeta f, 1 / segment)``: the
-      cluster's band spans that band twice, and a line in the outer half is another's.
+      only where the band signal's spectrum
+      (:func:`gbpipe.identify.band_signal.band_spectrum`) within one frequency line of
+      the pole, ``f ± 1 / segment``, reaches half its strongest peak: a line's pole lies
+      on the line (anywhere on its sweep), and a line further off is another's.
       A band that holds a lighter mode is judged against that mode's limit
       (:mod:`gbpipe.identify.record_kinds`);
     * the **drift**: a line follows its shaft's speed, so the peak near the cluster
@@ -48,7 +49,9 @@ A stable cluster of a stabilization diagram is one of three things:
       through the band, its PDF there bursty); a mode's peak jitters at random.
       Spearman's rank correlation of each Welch segment's peak frequency with time
       (:func:`gbpipe.identify.peak_drift.peak_drift`), p below ``ALPHA``, on a track
-      through the cluster's frequency, searched in the cluster's band, at least
+      that comes within a frequency line of the pole (widened by its median step; one
+      that keeps away follows another peak, or jumps between two), searched in the
+      cluster's band (maxima on its edge left out), at least
       ``3 / segment`` on each side: an unresolved pole (``2 zeta f < 1 / segment``, as a
       line's) is located within one frequency line, the Hann main lobe spans
       ``2 / segment`` on each side, and the fit puts a swept line's pole anywhere on its
@@ -181,7 +184,8 @@ def cluster_evidence(frequency_hz: float, damping: float, outputs: Sequence[np.n
     lighter : tuple of float, optional
         Frequency [Hz] and damping [1] of a lighter mode in the cluster's band: the PDF
         test's hypothesis is then that mode's half-power bandwidth, whose longer
-        correlation makes the band's statistic scatter more (:func:`record_evidence`).
+        correlation makes the band's statistic scatter more
+        (:func:`gbpipe.identify.record_kinds.record_evidence`).
         None: the cluster's own.
     """
     f, zeta = float(frequency_hz), float(damping)
@@ -194,7 +198,6 @@ def cluster_evidence(frequency_hz: float, damping: float, outputs: Sequence[np.n
     null = ("this damping" if lighter is None else
             f"the lighter mode at {lighter[0]:.1f} Hz (damping {lighter[1]:.4f}) in the band")
     alpha = ALPHA / len(outputs)
-    kurt, limit, worst = np.inf, np.nan, ""
     drift, drift_at, passes = None, "", False
     # the drift test's band: the cluster's, at least the Hann main lobe about the pole's
     # located frequency (module docstring)
@@ -202,32 +205,39 @@ def cluster_evidence(frequency_hz: float, damping: float, outputs: Sequence[np.n
     power = []  # of each output's band signal
     leaks = []
     check_rng = rng.spawn(1)[0]
-    # a band's sinusoid is the pole's where its peak meets the pole's half-power band: a
-    # line beside the pole (a cluster's band spans that band twice) is another's
-    tol = max(zeta * f, resolution_hz)
-    at_pole, beside = False, []
+    # a band's sinusoid is the pole's where the band's spectrum within one frequency line
+    # of the pole reaches half its strongest peak: a line's pole lies on the line (within
+    # its sweep), so a line further off is another's, however wide the pole
+    tol = resolution_hz
+    readings, beside = [], []  # (kurtosis - limit, kurtosis, limit, output, at the pole)
     for x, name in zip(outputs, names, strict=True):
         read = band_statistic(x, fs, f, max(zeta_null, zeta_res), w, alpha, rng, check_rng,
                               1.0 / resolution_hz)
         power.append(read.power)
         if read.note:
             leaks.append(f"{name}: {read.note}")
-        if read.kurtosis < read.limit:
-            lo, hi = read.peak_hz
-            if lo <= tol and hi >= -tol:
-                at_pole = True
-            else:
-                beside.append(f"{name}'s sinusoid at {f + lo:.1f}-{f + hi:.1f} Hz lies "
-                              f"beside the pole's half-power band {f - tol:.1f}-"
-                              f"{f + tol:.1f} Hz: another's line, the PDF test does not "
-                              "decide")
-        if read.kurtosis - read.limit < kurt - (limit if np.isfinite(limit) else 0.0):
-            kurt, limit, worst = read.kurtosis, read.limit, name
+        at = False
+        if read.spectrum is not None:
+            offset, psd = read.spectrum
+            share = float(np.max(psd[np.abs(offset) <= tol], initial=0.0) / np.max(psd))
+            at = share >= 0.5
+            if not at:
+                beside.append(f"{name}'s spectrum reaches {share:.2f} of its strongest peak "
+                              f"({f + offset[np.argmax(psd)]:.1f} Hz) within a frequency "
+                              f"line of the pole ({f - tol:.1f}-{f + tol:.1f} Hz): a "
+                              "line beside the pole")
+        readings.append((read.kurtosis - read.limit, read.kurtosis, read.limit, name, at))
         d = peak_drift(x, fs, f, wt, 1.0 / resolution_hz)
         # the track must pass the cluster: one beside it is a line beside the cluster
-        on = bool(d.low_hz <= f <= d.high_hz)
+        on = bool(d.gap_hz <= resolution_hz + d.step_hz)  # NaN: no track
         if drift is None or (on and (not passes or d.p < drift.p)):
             drift, drift_at, passes = d, name, on
+    # the reading reported: the most sinusoid-like, of those at the pole where any is
+    at_pole = any(r[4] for r in readings)
+    kurt, limit, worst = np.inf, np.nan, ""
+    for diff, k, lim, name, at in readings:
+        if (at or not at_pole) and diff < kurt - (limit if np.isfinite(limit) else 0.0):
+            kurt, limit, worst = k, lim, name
     near = np.abs(coherence_f - f) <= w
     coh = float(np.max(coherence[near])) if near.any() else float(
         coherence[np.argmin(np.abs(coherence_f - f))])
@@ -245,8 +255,10 @@ def cluster_evidence(frequency_hz: float, damping: float, outputs: Sequence[np.n
              f"peak frequency vs time in {track_band} of {drift_at}: Spearman "
              f"{drift.rho:.2f}, p {drift.p:.1e} over {drift.n} segments, track "
              f"{drift.low_hz:.1f}-{drift.high_hz:.1f} Hz"
-             + ("" if passes else " (does not pass the cluster: a peak beside it)"),
-             *leaks, *beside,
+             + ("" if passes else " (no peak inside the band)"
+                if not np.isfinite(drift.gap_hz) else f" (does not pass the cluster: "
+                f"{drift.gap_hz:.1f} Hz off at the nearest, a peak beside it)"),
+             *leaks, *([] if at_pole else beside),
              f"damping {zeta:.4f} (the record resolves >= {zeta_res:.5f})",
              *([] if pdf_test else [f"the band holds order line(s) "
                                     f"{', '.join(f'{k:.4g}' for k in crossed)}: the PDF "

@@ -58,9 +58,13 @@ def record_evidence(clusters: Sequence[Cluster], data: Sequence[PairingData],
                     ) -> tuple[list[Evidence], HarmonicBands]:
     """The evidence of every cluster of a record, and the order lines used.
 
-    With a measured speed (``bands`` not empty) each cluster is judged once
-    (:func:`cluster_evidence`). Without one, the clusters the PDF or damping test found
-    to be sinusoids give the record's own order-1 line (:func:`order_one`), the user's
+    Each cluster is judged (:func:`cluster_evidence`); one that the PDF test read as a
+    sinusoid with a narrower ``mode`` of its pairing in its band (:func:`_lighter_mode`)
+    is judged again against that mode's limit, with Monte Carlo draws of its own (a
+    generator per cluster from ``seed``: the other clusters' draws stay as they are).
+    With a measured speed (``bands`` not empty) that is all. Without one, the clusters
+    the PDF or damping test found to be sinusoids give the record's own order-1 line
+    (:func:`order_one`), the user's
     ``orders`` scale from it, and any other cluster on those lines is relabelled
     ``harmonic``. A cluster off those lines that the PDF test called a line, whose peak
     does not drift, and whose half-power band ``2 zeta f`` is wider than every one of
@@ -78,23 +82,22 @@ def record_evidence(clusters: Sequence[Cluster], data: Sequence[PairingData],
     """
     rng = np.random.default_rng(seed)
 
-    def judge(c: Cluster, lines: HarmonicBands, angle: np.ndarray | None,
-              lighter: tuple[float, float] | None = None,
-              draws: np.random.Generator = rng) -> Evidence:
-        d = data[c.pairing]
+    def judge(k: int, lines: HarmonicBands, angle: np.ndarray | None,
+              lighter: tuple[float, float] | None = None) -> Evidence:
+        c, d = clusters[k], data[clusters[k].pairing]
+        # a judgement against a lighter mode draws from a generator of its own
+        draws = rng if lighter is None else np.random.default_rng((seed, 1, k))
         return cluster_evidence(c.frequency_hz, c.damping, list(d.y.T), d.names, d.fs,
                                 d.frequency, d.coherence, resolution_hz, coherence_min,
                                 lines, draws, angle, c.frf_hz, lighter)
 
-    ev = [judge(c, bands, data[c.pairing].angle) for c in clusters]
+    ev = [judge(k, bands, data[c.pairing].angle) for k, c in enumerate(clusters)]
     # a band that holds a lighter mode scatters as that mode's response does: a sinusoid
-    # read there is judged again against that mode's limit (draws of their own, so that
-    # the other clusters' stay as they are)
+    # read there is judged again against that mode's limit
     light = [_lighter_mode(c, clusters, ev, resolution_hz) for c in clusters]
-    light_rng = np.random.default_rng((seed, 1))
     for k, c in enumerate(clusters):
         if light[k] is not None and ev[k].sinusoid:
-            ev[k] = judge(c, bands, data[c.pairing].angle, light[k], light_rng)
+            ev[k] = judge(k, bands, data[c.pairing].angle, light[k])
     if bands.source:
         return ev, bands
     lines = np.array([c.frequency_hz for c, e in zip(clusters, ev, strict=True)
@@ -109,15 +112,15 @@ def record_evidence(clusters: Sequence[Cluster], data: Sequence[PairingData],
             ev[k] = ev[k]._replace(line_order=order)
         elif (ev[k].kind == "harmonic" and ev[k].sinusoid and not ev[k].drifts
               and _wider_than_lines(c, own, resolution_hz)):
-            ev[k] = judge(c, own, None, light[k])  # the record's own lines: no angle
+            ev[k] = judge(k, own, None, light[k])  # the record's own lines: no angle
     return ev, own
 
 
 def _lighter_mode(c: Cluster, clusters: Sequence[Cluster], ev: Sequence[Evidence],
                   resolution_hz: float) -> tuple[float, float] | None:
-    """Frequency [Hz] and damping [1] of the lightest cluster of ``c``'s pairing called a
-    ``mode`` in ``c``'s band (:func:`cluster_evidence`) with a narrower half-power band
-    ``2 zeta f`` than ``c``'s; None for none."""
+    """Frequency [Hz] and damping [1] of the cluster of ``c``'s pairing called a ``mode``
+    in ``c``'s band (:func:`cluster_evidence`) with the narrowest half-power band
+    ``2 zeta f``, if narrower than ``c``'s; None for none."""
     f, bw = c.frequency_hz, c.damping * c.frequency_hz
     w = band_half_width(f, c.damping, resolution_hz)
     near = [(o.damping * o.frequency_hz, o.frequency_hz, o.damping)
