@@ -135,21 +135,14 @@ def test_kurtosis_limit_holds_for_modes_and_not_for_lines(f0, zeta):
 def test_a_line_sweeping_through_the_band_drifts_a_mode_does_not():
     """A line whose shaft speeds up 1 % (254 -> 256.5 Hz, through a 1 Hz band: its PDF
     there is bursty, not a sinusoid's) has a monotonic peak track; the peaks of modes
-    scipy simulates have none (p above ALPHA in each of 20 records). The track holds the
-    segments whose peak lies inside the band, not on its edge: those where the line's
-    frequency at the segment's middle is nearest a frequency of the spectrogram's grid
-    (0.125 Hz) strictly inside it."""
+    scipy simulates have none (p above ALPHA in each of 20 records)."""
     rng = np.random.default_rng(6)
     n = int(40 * FS)
     t = np.arange(n) / FS
     f_line = 254.0 * (1 + 0.01 * t / t[-1])
     x = np.sin(2 * np.pi * np.cumsum(f_line) / FS) + 0.3 * rng.standard_normal(n)
     d = peak_drift(x, FS, 255.2, 1.0, 2.0)
-    grid = np.arange(0.0, FS / 2, 0.125)
-    inner = grid[np.abs(grid - 255.2) <= 1.0][1:-1]
-    f_mid = 254.0 * (1 + 0.01 * (2.0 * np.arange(20) + 1.0) / t[-1])
-    inside = (f_mid > inner[0] - 0.0625) & (f_mid < inner[-1] + 0.0625)
-    assert d.n == np.sum(inside) and d.rho > 0.9 and d.p < ALPHA, d
+    assert d.n == 20 and d.rho > 0.9 and d.p < ALPHA, d
     assert d.gap_hz <= 0.5 + d.step_hz  # the track passes the pole
     z, _ = band_envelope(x, FS, 255.2, 0.5)
     assert float(kurtosis_statistic(z)) > 2.5  # the PDF test alone would not see it

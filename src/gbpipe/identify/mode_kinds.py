@@ -51,7 +51,7 @@ A stable cluster of a stabilization diagram is one of three things:
       (:func:`gbpipe.identify.peak_drift.peak_drift`), p below ``ALPHA``, on a track
       that comes within a frequency line of the pole (widened by its median step; one
       that keeps away follows another peak, or jumps between two), searched in the
-      cluster's band (maxima on its edge left out), at least
+      cluster's band, at least
       ``3 / segment`` on each side: an unresolved pole (``2 zeta f < 1 / segment``, as a
       line's) is located within one frequency line, the Hann main lobe spans
       ``2 / segment`` on each side, and the fit puts a swept line's pole anywhere on its
@@ -255,7 +255,7 @@ def cluster_evidence(frequency_hz: float, damping: float, outputs: Sequence[np.n
              f"peak frequency vs time in {track_band} of {drift_at}: Spearman "
              f"{drift.rho:.2f}, p {drift.p:.1e} over {drift.n} segments, track "
              f"{drift.low_hz:.1f}-{drift.high_hz:.1f} Hz"
-             + ("" if passes else " (no peak inside the band)"
+             + ("" if passes else " (no track)"
                 if not np.isfinite(drift.gap_hz) else f" (does not pass the cluster: "
                 f"{drift.gap_hz:.1f} Hz off at the nearest, a peak beside it)"),
              *leaks, *([] if at_pole else beside),

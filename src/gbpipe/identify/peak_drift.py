@@ -25,7 +25,7 @@ class Drift(NamedTuple):
     p : float
         Its two-sided p-value [1] (1 for a constant track).
     n : int
-        Segments [1] whose peak lies inside the band.
+        Segments [1].
     low_hz, high_hz : float
         Lowest and highest peak of the track [Hz] (NaN: no track).
     gap_hz : float
@@ -51,25 +51,20 @@ def peak_drift(x: np.ndarray, fs: float, f0: float, half_width: float, segment: 
     zero-padded) within the band, against time: Spearman's rank correlation and its
     two-sided p-value (:func:`scipy.stats.spearmanr`). A line follows its shaft's speed,
     which drifts smoothly: a monotonic track; a mode's peak jitters at random about its
-    frequency (no trend under the hypothesis of a mode: p uniform). A segment whose
-    maximum lies on the band's edge has no peak in the band (the skirt of a stronger
-    line outside it) and is left out. How near the track comes to ``f0`` [Hz] tells
-    whether it passes the pole (a track that keeps away from ``f0`` follows a peak beside
-    the pole, a line or another mode, or jumps between two: :func:`cluster_evidence`).
+    frequency (no trend under the hypothesis of a mode: p uniform). How near the track
+    comes to ``f0`` [Hz] tells whether it passes the pole (a track that keeps away from
+    ``f0`` follows a peak beside the pole, a line or another mode, or jumps between two:
+    :func:`cluster_evidence`).
     """
     n = int(round(segment * fs))
-    f, t, pxx = signal.spectrogram(x - x.mean(), fs, nperseg=n, noverlap=0, nfft=4 * n)
+    f, _, pxx = signal.spectrogram(x - x.mean(), fs, nperseg=n, noverlap=0, nfft=4 * n)
     band = np.abs(f - f0) <= half_width
-    if pxx.shape[1] < 4 or band.sum() < 3:
+    if pxx.shape[1] < 4 or band.sum() < 2:
         return Drift(np.nan, 1.0, pxx.shape[1], np.nan, np.nan, np.nan, np.nan)
-    top = np.argmax(pxx[band], axis=0)
-    inside = (top > 0) & (top < band.sum() - 1)
-    track, t = f[band][top[inside]], t[inside]
-    if track.size < 4:
-        return Drift(np.nan, 1.0, track.size, np.nan, np.nan, np.nan, np.nan)
+    track = f[band][np.argmax(pxx[band], axis=0)]
     low, high = float(track.min()), float(track.max())
     gap, step = float(np.min(np.abs(track - f0))), float(np.median(np.abs(np.diff(track))))
     if np.ptp(track) == 0:
         return Drift(np.nan, 1.0, track.size, low, high, gap, step)
-    res = stats.spearmanr(t, track)
+    res = stats.spearmanr(np.arange(track.size), track)
     return Drift(float(res.statistic), float(res.pvalue), track.size, low, high, gap, step)
