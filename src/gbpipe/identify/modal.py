@@ -296,7 +296,7 @@ def _dataset(s: Mapping[str, Any], names: list[str], results: list[dict[str, Any
                                      "mode, harmonic (an order line) or spurious (noise)"}),
         "mode_evidence": (dims_c, why, {"units": one, "long_name": "why the kind, in words"}),
         "mode_kurtosis": (dims_c, cl["k"], {"units": one, "long_name": "kurtosis in the "
-                                            "cluster's band of the output furthest under "
+                                            "cluster's band of the output lowest against "
                                             "its limit (of those whose sinusoid is the "
                                             "pole's, where any)"}),
         "mode_kurtosis_limit": (dims_c, cl["kl"], {"units": one, "long_name": "lowest "

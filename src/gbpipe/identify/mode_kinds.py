@@ -107,7 +107,8 @@ class Evidence(NamedTuple):
     text : str
         Why, in words.
     kurtosis : float
-        Lowest band kurtosis over the outputs [1] (sinusoid 1.5, Gaussian 3).
+        Band kurtosis of the output lowest against its limit [1] (sinusoid 1.5, Gaussian
+        3), of those whose sinusoid is the pole's where any is.
     kurtosis_limit : float
         Its limit under the mode hypothesis for that output [1].
     coherence : float
@@ -222,10 +223,10 @@ def cluster_evidence(frequency_hz: float, damping: float, outputs: Sequence[np.n
             share = float(np.max(psd[np.abs(offset) <= tol], initial=0.0) / np.max(psd))
             at = share >= 0.5
             if not at:
-                beside.append(f"{name}'s spectrum reaches {share:.2f} of its strongest peak "
-                              f"({f + offset[np.argmax(psd)]:.1f} Hz) within a frequency "
-                              f"line of the pole ({f - tol:.1f}-{f + tol:.1f} Hz): a "
-                              "line beside the pole")
+                beside.append(f"{name}'s spectrum within a frequency line of the pole "
+                              f"({f - tol:.1f}-{f + tol:.1f} Hz) reaches {share:.3f} of its "
+                              f"strongest peak ({f + offset[np.argmax(psd)]:.1f} Hz), under "
+                              "half: a peak beside the pole (a line's or another mode's)")
         readings.append((read.kurtosis - read.limit, read.kurtosis, read.limit, name, at))
         d = peak_drift(x, fs, f, wt, 1.0 / resolution_hz)
         # the track must pass the cluster: one beside it is a line beside the cluster
@@ -257,7 +258,8 @@ def cluster_evidence(frequency_hz: float, damping: float, outputs: Sequence[np.n
              f"{drift.low_hz:.1f}-{drift.high_hz:.1f} Hz"
              + ("" if passes else " (no track)"
                 if not np.isfinite(drift.gap_hz) else f" (does not pass the cluster: "
-                f"{drift.gap_hz:.1f} Hz off at the nearest, a peak beside it)"),
+                f"{drift.gap_hz:.2f} Hz off at the nearest, over "
+                f"{resolution_hz + drift.step_hz:.2f} Hz: a peak beside it)"),
              *leaks, *([] if at_pole else beside),
              f"damping {zeta:.4f} (the record resolves >= {zeta_res:.5f})",
              *([] if pdf_test else [f"the band holds order line(s) "
@@ -321,7 +323,9 @@ def cluster_evidence(frequency_hz: float, damping: float, outputs: Sequence[np.n
     elif np.isfinite(order):
         kind, why = "mode", (f"a mode that order {order:.4g} of {bands.source} crosses: the "
                              f"line has under {LINE_SHARE:g} times the power in its band, "
-                             "which is Gaussian, resolved and coherent")
+                             + ("which is Gaussian, resolved and coherent" if not kurt < limit
+                                else "which is resolved and coherent (a peak beside the "
+                                "pole sets its PDF)"))
     else:
         gaussian = pdf_test and not kurt < limit  # else a line in the band sets the PDF
         kind, why = "mode", ("Gaussian in its band, resolved, coherent" if gaussian else

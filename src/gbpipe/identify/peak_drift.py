@@ -31,7 +31,9 @@ class Drift(NamedTuple):
     gap_hz : float
         The track's closest approach to the band's centre [Hz] (NaN: no track).
     step_hz : float
-        Median change of the peak from one segment to the next [Hz] (NaN: no track).
+        Size of the median signed change of the peak from one segment to the next [Hz]
+        (NaN: no track): a sweep's steps share a sign, a track that jumps back and forth
+        between two peaks has steps that cancel.
     """
 
     rho: float
@@ -63,7 +65,7 @@ def peak_drift(x: np.ndarray, fs: float, f0: float, half_width: float, segment: 
         return Drift(np.nan, 1.0, pxx.shape[1], np.nan, np.nan, np.nan, np.nan)
     track = f[band][np.argmax(pxx[band], axis=0)]
     low, high = float(track.min()), float(track.max())
-    gap, step = float(np.min(np.abs(track - f0))), float(np.median(np.abs(np.diff(track))))
+    gap, step = float(np.min(np.abs(track - f0))), abs(float(np.median(np.diff(track))))
     if np.ptp(track) == 0:
         return Drift(np.nan, 1.0, track.size, low, high, gap, step)
     res = stats.spearmanr(np.arange(track.size), track)
