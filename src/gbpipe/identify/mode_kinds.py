@@ -209,7 +209,6 @@ def cluster_evidence(frequency_hz: float, damping: float, outputs: Sequence[np.n
     # a band's sinusoid is the pole's where the band's spectrum within one frequency line
     # of the pole reaches half its strongest peak: a line's pole lies on the line (within
     # its sweep), so a line further off is another's, however wide the pole
-    tol = resolution_hz
     readings, beside = [], []  # (kurtosis - limit, kurtosis, limit, output, at the pole)
     for x, name in zip(outputs, names, strict=True):
         read = band_statistic(x, fs, f, max(zeta_null, zeta_res), w, alpha, rng, check_rng,
@@ -220,13 +219,14 @@ def cluster_evidence(frequency_hz: float, damping: float, outputs: Sequence[np.n
         at = False
         if read.spectrum is not None:
             offset, psd = read.spectrum
-            share = float(np.max(psd[np.abs(offset) <= tol], initial=0.0) / np.max(psd))
+            share = float(np.max(psd[np.abs(offset) <= resolution_hz], initial=0.0) / np.max(psd))
             at = share >= 0.5
             if not at:
                 beside.append(f"{name}'s spectrum within a frequency line of the pole "
-                              f"({f - tol:.1f}-{f + tol:.1f} Hz) reaches {share:.3f} of its "
-                              f"strongest peak ({f + offset[np.argmax(psd)]:.1f} Hz), under "
-                              "half: a peak beside the pole (a line's or another mode's)")
+                              f"({f - resolution_hz:.1f}-{f + resolution_hz:.1f} Hz) "
+                              f"reaches {share:.3f} of its strongest peak "
+                              f"({f + offset[np.argmax(psd)]:.1f} Hz), under half: a peak "
+                              "beside the pole (a line's or another mode's)")
         readings.append((read.kurtosis - read.limit, read.kurtosis, read.limit, name, at))
         d = peak_drift(x, fs, f, wt, 1.0 / resolution_hz)
         # the track must pass the cluster: one beside it is a line beside the cluster

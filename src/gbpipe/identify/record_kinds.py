@@ -64,13 +64,12 @@ def record_evidence(clusters: Sequence[Cluster], data: Sequence[PairingData],
     generator per cluster from ``seed``: the other clusters' draws stay as they are).
     With a measured speed (``bands`` not empty) that is all. Without one, the clusters
     the PDF or damping test found to be sinusoids give the record's own order-1 line
-    (:func:`order_one`), the user's
-    ``orders`` scale from it, and any other cluster on those lines is relabelled
-    ``harmonic``. A cluster off those lines that the PDF test called a line, whose peak
-    does not drift, and whose half-power band ``2 zeta f`` is wider than every one of
-    those lines' bands in its band (no line makes a peak that wide), is judged again with
-    them, as with a measured speed (no angle): the line in its band, not the cluster,
-    made its PDF a sinusoid's.
+    (:func:`order_one`), the user's ``orders`` scale from it, and any other cluster on
+    those lines is relabelled ``harmonic``. A cluster off those lines that the PDF test
+    called a line, whose peak does not drift, and whose half-power band ``2 zeta f`` is
+    wider than every one of those lines' bands in its band (no line makes a peak that
+    wide), is judged again with them, as with a measured speed (no angle): the line in
+    its band, not the cluster, made its PDF a sinusoid's.
 
     Parameters
     ----------
@@ -94,9 +93,10 @@ def record_evidence(clusters: Sequence[Cluster], data: Sequence[PairingData],
     ev = [judge(k, bands, data[c.pairing].angle) for k, c in enumerate(clusters)]
     # a band that holds a lighter mode scatters as that mode's response does: a sinusoid
     # read there is judged again against that mode's limit
-    light = [_lighter_mode(c, clusters, ev, resolution_hz) for c in clusters]
+    light = [_lighter_mode(c, clusters, ev, resolution_hz) if e.sinusoid else None
+             for c, e in zip(clusters, ev, strict=True)]
     for k, c in enumerate(clusters):
-        if light[k] is not None and ev[k].sinusoid:
+        if light[k] is not None:
             ev[k] = judge(k, bands, data[c.pairing].angle, light[k])
     if bands.source:
         return ev, bands
