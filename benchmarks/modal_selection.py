@@ -93,7 +93,7 @@ from modal_detectability import miss_reason, modal_overlap, modal_snr
 from modal_peers import measured, pyoma2_ssicov
 
 from gbpipe.config import load, merge, validate
-from gbpipe.errors import DataError
+from gbpipe.errors import DataError, PulseError
 from gbpipe.identify import record_modes
 from gbpipe.measured import read
 from gbpipe.model.chain import build_chain
@@ -196,13 +196,19 @@ def gbpipe_modes(cfg: Any, record: Any, case: modal_cases.Case) -> tuple[Any, bo
 
     A version whose ``record_modes`` takes ``speeds`` gets the encoder's speed signal
     (shaft order 1: the encoder is on the order lines' shaft). Orders a version cannot
-    place (no speed it reads) are refused with a DataError: then it gets none.
+    place (no speed it reads) are refused with a DataError: then it gets none. A tacho the
+    stage refuses (a PulseError: a shaft whose vibration swings its speed by more than a
+    quarter within a revolution) is dropped, as its user would, and the record read
+    without a speed.
     """
     kw = {}
     if case.speed == "encoder" and "speeds" in inspect.signature(record_modes).parameters:
         kw["speeds"] = {modal_cases.ENCODER_SIGNAL: 1.0}
     try:
         return record_modes(cfg, record, case.orders.tolist(), **kw), True
+    except PulseError as exc:
+        print(f"  {case.name}: the tacho was refused ({exc}); read without it")
+        return record_modes(cfg, record.drop_vars("pulse_time"), [], **kw), False
     except DataError:
         return record_modes(cfg, record, [], **kw), False
 

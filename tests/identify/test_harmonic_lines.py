@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+import scipy.signal
 import xarray as xr
 
 from gbpipe.errors import ConfigError, DataError
@@ -31,24 +32,58 @@ def sweep_pulses(f0: float, f1: float, duration: float, ppr: int, spacing: np.nd
 
 @pytest.mark.parametrize(("f0", "f1", "ppr"), [(10.0, 10.4, 1), (5.0, 25.0, 60),
                                                (30.0, 29.0, 4)])
-def test_speed_range_from_pulses_cancels_tooth_spacing(f0, f1, ppr):
+def test_speed_range_from_pulses_is_the_segment_mean_in_whole_revolutions(f0, f1, ppr):
     rng = np.random.default_rng(1)
     # 1.5 % of a pitch per tooth: a per-interval speed would be off by up to ~3 %
     spacing = 0.015 * rng.standard_normal(ppr) if ppr > 1 else np.zeros(1)
-    duration = 20.0
+    duration, segment = 20.0, 2.0
     if f1 < f0:  # a run-down: the time-reversed run-up's pulses
         p = sweep_pulses(f1, f0, duration, ppr, spacing)
         p = np.sort(duration - p)
     else:
         p = sweep_pulses(f0, f1, duration, ppr, spacing)
-    lo, hi = shaft_frequency_range(p, ppr)
+    lo, hi = shaft_frequency_range(p, ppr, segment)
     f_min, f_max = min(f0, f1), max(f0, f1)
-    # each estimate is the mean over one revolution, and the train stops within one
-    # revolution of the end: within two revolutions' change (0.2 %, while the tooth
-    # spacing error alone would move a per-interval estimate by ~3 %)
-    one_rev = 2 * abs(f1 - f0) / duration / f_min
-    assert f_min - 1e-9 <= lo <= f_min + one_rev
-    assert f_max - one_rev <= hi <= f_max + 1e-9
+    # a linear sweep's mean frequency over a window is its frequency at the window's
+    # middle; each window spans the segment up to one revolution more (whole revolutions,
+    # which cancel the tooth spacing), and the train stops within one revolution of the
+    # end: the slowest window's middle lies half a segment into the slow end, plus at
+    # most one revolution, the fastest's as far from the fast end, plus at most two
+    a, rev = abs(f1 - f0) / duration, 1.0 / f_min
+    assert f_min + a * segment / 2 - 1e-9 <= lo <= f_min + a * (segment / 2 + rev) + 1e-9
+    assert f_max - a * (segment / 2 + 2 * rev) - 1e-9 <= hi <= f_max - a * segment / 2 + 1e-9
+
+
+def test_pulses_shorter_than_a_segment_are_refused():
+    p = 0.05 + np.arange(19) / 10.0  # 10 Hz, 18 revolutions in 1.8 s
+    assert shaft_frequency_range(p, 1, 1.0)[0] == pytest.approx(10.0)
+    with pytest.raises(DataError, match="one Welch segment"):
+        shaft_frequency_range(p, 1, 2.0)
+
+
+def test_a_vibrating_shaft_keeps_its_order_lines_in_a_narrow_band():
+    # theta(t) = 2 pi f0 t + A sin(2 pi fm t): a torsional vibration whose speed swing,
+    # A fm = 15 % of f0, a per-revolution speed follows; the order-k line of a Welch
+    # estimate stays at k f0, with sidebands at k f0 +- n fm of power J_n(k A)^2 (the
+    # carrier J_0^2 is the strongest while k A < 1.43; 0.82 here), and the mean over a
+    # segment T moves by A / (pi T) at most
+    f0, fm, amp, fs, duration, segment, k = 20.0, 7.3, 0.15 * 20.0 / 7.3, 1000.0, 20.0, 2.0, 2
+    t = np.arange(int(duration * 50 * fs)) / (50 * fs)
+    theta = 2 * np.pi * f0 * t + amp * np.sin(2 * np.pi * fm * t)
+    p = np.interp(2 * np.pi * np.arange(1, int(theta[-1] / (2 * np.pi))), theta, t)
+    lo, hi = shaft_frequency_range(p, 1, segment)
+    bound = amp / (np.pi * segment)
+    assert f0 - bound - 1e-6 <= lo <= hi <= f0 + bound + 1e-6
+    per_rev = 1.0 / np.diff(p)
+    assert per_rev.max() - per_rev.min() > 10 * (hi - lo)  # what the bands used to take
+    # the line of order k in the Welch estimate of one segment's resolution lies in the
+    # band (k lo, k hi) widened by one frequency line
+    ts = np.arange(int(duration * fs)) / fs
+    x = np.cos(k * (2 * np.pi * f0 * ts + amp * np.sin(2 * np.pi * fm * ts)))
+    f, pxx = scipy.signal.welch(x, fs, nperseg=int(segment * fs))
+    b = harmonic_bands((lo, hi), [float(k)], 1.0 / segment, 1)
+    peak = f[np.argmax(pxx)]
+    assert b.inside(peak)[b.order == k].all()
 
 
 def test_bands_closed_form_and_labels_at_the_edges():
@@ -81,9 +116,11 @@ def test_record_bands_from_its_pulse_train():
     p = sweep_pulses(12.0, 12.6, 10.0, 2, np.zeros(2))
     rec = xr.Dataset({"pulse_time": ("pulse", p)}, attrs={"pulses_per_rev": 2})
     b = record_harmonic_bands(rec, [], 0.25, 2)
-    assert b.shaft_hz[0] == pytest.approx(12.0, abs=0.01)
-    assert b.shaft_hz[1] == pytest.approx(12.6, abs=0.01)
-    assert label_poles([25.4, 26.0], b).tolist() == ["harmonic", "mode"]
+    # the means over the 4 s segment (1 / resolution) of the 12 -> 12.6 Hz sweep: its
+    # frequencies half a segment from either end, within a revolution's change
+    assert b.shaft_hz[0] == pytest.approx(12.12, abs=0.01)
+    assert b.shaft_hz[1] == pytest.approx(12.48, abs=0.01)
+    assert label_poles([25.1, 25.4], b).tolist() == ["harmonic", "mode"]
 
 
 def test_measured_orders_key():

@@ -63,9 +63,12 @@ class HarmonicBands(NamedTuple):
     shaft_hz: tuple[float, float]
     source: str = ""
 
-    def inside(self, frequency_hz: float) -> np.ndarray:
-        """Mask of the bands ``frequency_hz`` [Hz] lies in."""
-        return (self.low_hz <= frequency_hz) & (frequency_hz <= self.high_hz)
+    def inside(self, frequency_hz: float | np.ndarray) -> np.ndarray:
+        """Mask of the bands ``frequency_hz`` [Hz] lies in: shape (B,) for one frequency,
+        (*shape, B) for an array of them."""
+        f = np.asarray(frequency_hz, dtype=float)
+        f = f[..., None] if f.ndim else f
+        return (self.low_hz <= f) & (f <= self.high_hz)
 
     def overlapping(self, frequency_hz: float, half_width: float) -> np.ndarray:
         """Mask of the bands that overlap ``frequency_hz ± half_width`` [Hz]."""
@@ -85,12 +88,18 @@ class HarmonicBands(NamedTuple):
             else np.nan
 
 
-def shaft_frequency_range(pulse_time: np.ndarray, pulses_per_rev: int) -> tuple[float, float]:
-    """Slowest and fastest shaft rotation frequency of a pulse train [Hz].
+def shaft_frequency_range(pulse_time: np.ndarray, pulses_per_rev: int, segment: float
+                          ) -> tuple[float, float]:
+    """Slowest and fastest mean shaft frequency of a pulse train over a Welch segment [Hz].
 
-    Each frequency is one full revolution (``pulses_per_rev`` intervals) over its
-    duration: averaging over a revolution cancels the tooth-spacing error of the wheel,
-    which would otherwise widen the range by the spacing error of one tooth.
+    Each frequency is the whole revolutions from one pulse to the first pulse a segment
+    later or more, over their duration, as :func:`speed_frequency_range` averages a speed
+    signal: an order line in a Welch estimate sits at the mean shaft frequency of a
+    segment. The speed within a revolution is no line's frequency: a shaft's torsional
+    vibration modulates its angle (sidebands about the line, not a line elsewhere), and
+    per revolution it would widen the order-k band by k times that vibration's speed
+    swing (docs/modal.md, Criteria, "The speed"). Whole revolutions also cancel the
+    tooth-spacing error of the wheel.
 
     Parameters
     ----------
@@ -98,6 +107,8 @@ def shaft_frequency_range(pulse_time: np.ndarray, pulses_per_rev: int) -> tuple[
         Strictly increasing pulse times [s].
     pulses_per_rev : int
         Pulses per revolution of the tacho shaft, >= 1.
+    segment : float
+        Averaging length [s] (the Welch segment of the estimate), > 0.
 
     Returns
     -------
@@ -107,18 +118,25 @@ def shaft_frequency_range(pulse_time: np.ndarray, pulses_per_rev: int) -> tuple[
     Raises
     ------
     gbpipe.errors.PulseError
-        Non-increasing, missing or extra pulses (:func:`gbpipe.harmonics.check_pulse_times`),
-        or fewer than two revolutions of pulses.
+        Non-increasing, missing or extra pulses (:func:`gbpipe.harmonics.check_pulse_times`).
+    gbpipe.errors.DataError
+        Pulses that do not span one segment in whole revolutions.
     """
     p = check_pulse_times(pulse_time).pulse_times
     ppr = int(pulses_per_rev)
     if ppr < 1:
         raise ConfigError("pulses_per_rev", f"must be >= 1; got {pulses_per_rev}")
-    if p.size < 2 * ppr + 1:
-        raise DataError("pulse_time", f"{p.size} pulses are fewer than two revolutions at "
-                        f"{ppr} pulses per revolution: record a longer run")
-    f_rev = 1.0 / (p[ppr:] - p[:-ppr])
-    return float(f_rev.min()), float(f_rev.max())
+    start = np.arange(p.size)
+    # from each pulse, the first whole revolution ending a segment later or more
+    end = start + ppr * np.ceil((np.searchsorted(p, p + float(segment)) - start) / ppr
+                                ).astype(int)
+    ok = end < p.size
+    if not ok.any():
+        raise DataError("pulse_time", f"{p.size} pulses at {ppr} per revolution do not span "
+                        f"one Welch segment ({float(segment):g} s) in whole revolutions: "
+                        "record a longer run")
+    f = (end[ok] - start[ok]) / ppr / (p[end[ok]] - p[start[ok]])
+    return float(f.min()), float(f.max())
 
 
 def speed_frequency_range(speed: np.ndarray, fs: float, shaft_order: float,
@@ -225,7 +243,8 @@ def record_harmonic_bands(record: xr.Dataset, orders: Sequence[float], resolutio
     speeds : mapping str -> float, optional
         Speed signals [rad/s] of the record and the order of their shaft [1].
     segment : float, optional
-        Averaging length of a speed signal [s] (default ``1 / resolution_hz``).
+        Averaging length of the tacho's or a speed signal's shaft frequency [s] (default
+        ``1 / resolution_hz``): the Welch segment of the estimate the bands are used on.
 
     Raises
     ------
@@ -235,7 +254,8 @@ def record_harmonic_bands(record: xr.Dataset, orders: Sequence[float], resolutio
     """
     if "pulse_time" in record:
         shaft = shaft_frequency_range(np.asarray(record["pulse_time"].values, dtype=float),
-                                      int(record.attrs["pulses_per_rev"]))
+                                      int(record.attrs["pulses_per_rev"]),
+                                      segment or 1.0 / resolution_hz)
         return harmonic_bands(shaft, orders, resolution_hz, n_harmonics,
                               f_max)._replace(source="the tacho")
     for name, shaft_order in (speeds or {}).items():
@@ -356,8 +376,5 @@ def label_poles(frequency_hz: np.ndarray, bands: HarmonicBands) -> np.ndarray:
     -------
     ndarray of str, the shape of ``frequency_hz``
     """
-    f = np.asarray(frequency_hz, dtype=float)
-    inside = np.zeros(f.shape, bool)
-    for low, high in zip(bands.low_hz, bands.high_hz, strict=True):
-        inside |= (f >= low) & (f <= high)
+    inside = bands.inside(frequency_hz).any(axis=-1)
     return np.where(inside, KINDS[1], KINDS[0])

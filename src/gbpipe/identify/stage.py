@@ -283,7 +283,8 @@ def _line_bands(records: Sequence[xr.Dataset], line_orders: Sequence[float],
         log.warning("orders %s not excluded from the assessment of a record without a "
                     "tachometer (docs/modal.md)", list(line_orders))
     return [record_harmonic_bands(rec, line_orders, resolution,
-                                  s["stabilization"]["shaft_harmonics"], s["frf"]["f_max"])
+                                  s["stabilization"]["shaft_harmonics"], s["frf"]["f_max"],
+                                  segment=float(s["nonparametric"]["segment"]))
             for rec in records if "pulse_time" in rec]
 
 
