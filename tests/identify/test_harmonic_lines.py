@@ -49,9 +49,25 @@ def test_speed_range_from_pulses_is_the_segment_mean_in_whole_revolutions(f0, f1
     # which cancel the tooth spacing), and the train stops within one revolution of the
     # end: the slowest window's middle lies half a segment into the slow end, plus at
     # most one revolution, the fastest's as far from the fast end, plus at most two
+    # (a tooth's misplacement shifts a window's ends by up to its share of a pitch, which
+    # moves the middle's frequency by a times that time: the first pulse may even come
+    # before t = 0)
     a, rev = abs(f1 - f0) / duration, 1.0 / f_min
-    assert f_min + a * segment / 2 - 1e-9 <= lo <= f_min + a * (segment / 2 + rev) + 1e-9
-    assert f_max - a * (segment / 2 + 2 * rev) - 1e-9 <= hi <= f_max - a * segment / 2 + 1e-9
+    tooth = a * np.max(np.abs(spacing)) / (ppr * f_min) + 1e-9
+    assert f_min + a * segment / 2 - tooth <= lo <= f_min + a * (segment / 2 + rev) + tooth
+    assert f_max - a * (segment / 2 + 2 * rev) - tooth <= hi <= f_max - a * segment / 2 + tooth
+
+
+def test_speed_range_from_pulses_takes_whole_revolutions_of_a_misplaced_wheel():
+    # a steady 12.5 Hz shaft, 4 teeth misplaced by up to 8 % of a pitch (within the
+    # pulse check's tolerance): windows of whole revolutions hold the speed exactly,
+    # windows of a pulse count would be off by up to 8e-4
+    f0, ppr = 12.5, 4
+    spacing = np.array([0.0, 0.08, -0.06, 0.04])
+    n = np.arange(10 * 60 * ppr)
+    p = 0.01 + (n + spacing[n % ppr]) / ppr / f0
+    lo, hi = shaft_frequency_range(p, ppr, 2.0)
+    assert lo == pytest.approx(f0, rel=1e-12) and hi == pytest.approx(f0, rel=1e-12)
 
 
 def test_pulses_shorter_than_a_segment_are_refused():
@@ -84,6 +100,10 @@ def test_a_vibrating_shaft_keeps_its_order_lines_in_a_narrow_band():
     b = harmonic_bands((lo, hi), [float(k)], 1.0 / segment, 1)
     peak = f[np.argmax(pxx)]
     assert b.inside(peak)[b.order == k].all()
+    # its first sidebands (J_1(k A)^2 / J_0^2 = 0.20 of the carrier's power) lie outside
+    # every band: left to the PDF and drift tests, as any peak off a line
+    assert pxx[np.argmin(np.abs(f - (k * f0 + fm)))] > 0.1 * pxx.max()
+    assert not b.inside([k * f0 - fm, k * f0 + fm]).any()
 
 
 def test_bands_closed_form_and_labels_at_the_edges():

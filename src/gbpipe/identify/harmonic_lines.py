@@ -25,6 +25,7 @@ from typing import NamedTuple
 
 import numpy as np
 import xarray as xr
+from numpy.typing import ArrayLike
 from scipy.integrate import cumulative_trapezoid
 
 from gbpipe.errors import ConfigError, DataError
@@ -63,9 +64,11 @@ class HarmonicBands(NamedTuple):
     shaft_hz: tuple[float, float]
     source: str = ""
 
-    def inside(self, frequency_hz: float | np.ndarray) -> np.ndarray:
-        """Mask of the bands ``frequency_hz`` [Hz] lies in: shape (B,) for one frequency,
-        (*shape, B) for an array of them."""
+    def inside(self, frequency_hz: ArrayLike) -> np.ndarray:
+        """Mask of the bands ``frequency_hz`` [Hz] lies in.
+
+        Shape (B,) for one frequency, (*shape, B) for an array of them.
+        """
         f = np.asarray(frequency_hz, dtype=float)
         f = f[..., None] if f.ndim else f
         return (self.low_hz <= f) & (f <= self.high_hz)
@@ -92,14 +95,16 @@ def shaft_frequency_range(pulse_time: np.ndarray, pulses_per_rev: int, segment: 
                           ) -> tuple[float, float]:
     """Slowest and fastest mean shaft frequency of a pulse train over a Welch segment [Hz].
 
-    Each frequency is the whole revolutions from one pulse to the first pulse a segment
-    later or more, over their duration, as :func:`speed_frequency_range` averages a speed
-    signal: an order line in a Welch estimate sits at the mean shaft frequency of a
-    segment. The speed within a revolution is no line's frequency: a shaft's torsional
-    vibration modulates its angle (sidebands about the line, not a line elsewhere), and
-    per revolution it would widen the order-k band by k times that vibration's speed
-    swing (docs/modal.md, Criteria, "The speed"). Whole revolutions also cancel the
-    tooth-spacing error of the wheel.
+    Each frequency is that of the whole revolutions from one pulse to the first pulse
+    that closes whole revolutions at least ``segment`` later, as
+    :func:`speed_frequency_range` averages a speed signal: an order line in a Welch
+    estimate sits at the shaft's mean frequency over a segment. A revolution's own speed
+    is no line's frequency: a shaft's torsional vibration of angle amplitude A modulates
+    the order-k line's phase, which keeps the carrier at the mean speed and adds
+    sidebands (the carrier the strongest while k A < 1.43, where ``J_0 = J_1``), while a
+    revolution's speed swings by A times the vibration's angular frequency (docs/modal.md,
+    Criteria, "The speed"). Whole revolutions also cancel the tooth-spacing error of the
+    wheel. A window is up to one revolution longer than ``segment``.
 
     Parameters
     ----------
@@ -126,6 +131,9 @@ def shaft_frequency_range(pulse_time: np.ndarray, pulses_per_rev: int, segment: 
     ppr = int(pulses_per_rev)
     if ppr < 1:
         raise ConfigError("pulses_per_rev", f"must be >= 1; got {pulses_per_rev}")
+    if not (np.isfinite(segment) and segment > 0):
+        raise ConfigError("identify.nonparametric.segment",
+                          f"must be a positive duration [s]; got {segment}")
     start = np.arange(p.size)
     # from each pulse, the first whole revolution ending a segment later or more
     end = start + ppr * np.ceil((np.searchsorted(p, p + float(segment)) - start) / ppr
@@ -252,10 +260,12 @@ def record_harmonic_bands(record: xr.Dataset, orders: Sequence[float], resolutio
         ``orders`` given for a record with no speed; a speed signal missing or not in
         rad/s.
     """
+    # the Welch segment of the estimate (1 / resolution) unless given; asked for only with
+    # a speed (harmonic_bands refuses a resolution that is not positive)
+    welch = (lambda: 1.0 / resolution_hz) if segment is None else (lambda: segment)
     if "pulse_time" in record:
         shaft = shaft_frequency_range(np.asarray(record["pulse_time"].values, dtype=float),
-                                      int(record.attrs["pulses_per_rev"]),
-                                      segment or 1.0 / resolution_hz)
+                                      int(record.attrs["pulses_per_rev"]), welch())
         return harmonic_bands(shaft, orders, resolution_hz, n_harmonics,
                               f_max)._replace(source="the tacho")
     for name, shaft_order in (speeds or {}).items():
@@ -264,7 +274,7 @@ def record_harmonic_bands(record: xr.Dataset, orders: Sequence[float], resolutio
                             "(quantity: angle, or a value in an angular-speed unit such as "
                             "rpm or rad/s)")
         shaft = speed_frequency_range(record[name].values, float(record.attrs["sample_rate"]),
-                                      shaft_order, segment or 1.0 / resolution_hz)
+                                      shaft_order, welch())
         return harmonic_bands(shaft, orders, resolution_hz, n_harmonics, f_max)._replace(
             source=f"speed signal {name} (shaft order {shaft_order:g})")
     if len(orders):

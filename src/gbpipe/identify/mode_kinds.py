@@ -323,15 +323,15 @@ def cluster_evidence(frequency_hz: float, damping: float, outputs: Sequence[np.n
     elif np.isfinite(order):
         kind, why = "mode", (f"a mode that order {order:.4g} of {bands.source} crosses: the "
                              f"line has under {LINE_SHARE:g} times the power in its band, "
-                             + ("which holds no sinusoid, is resolved and coherent"
+                             + ("which no sinusoid dominates, resolved and coherent"
                                 if not kurt < limit
                                 else "which is resolved and coherent (a peak beside the "
                                 "pole sets its PDF)"))
     else:
-        # the test is one-sided (a sinusoid's kurtosis is low): at or above the limit the
-        # band holds no sinusoid, Gaussian or heavier-tailed (a transient excitation)
+        # the test is one-sided (a sinusoid's kurtosis is low): at or above the limit no
+        # sinusoid dominates the band, Gaussian or heavier-tailed (a transient excitation)
         no_line = pdf_test and not kurt < limit  # else a line in the band sets the PDF
-        kind, why = "mode", ("no sinusoid in its band, resolved, coherent" if no_line else
+        kind, why = "mode", ("no sinusoid dominates its band, resolved, coherent" if no_line else
                              "resolved and coherent (the line in its band sets its PDF)") + (
             f", on no order line of {bands.source}" if bands.source else "")
     return Evidence(kind, f"{why}; " + "; ".join(facts), kurt, limit, coh, order,
