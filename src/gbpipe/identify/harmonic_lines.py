@@ -69,8 +69,7 @@ class HarmonicBands(NamedTuple):
 
         Shape (B,) for one frequency, (*shape, B) for an array of them.
         """
-        f = np.asarray(frequency_hz, dtype=float)
-        f = f[..., None] if f.ndim else f
+        f = np.asarray(frequency_hz, dtype=float)[..., None]  # one frequency: shape (1,)
         return (self.low_hz <= f) & (f <= self.high_hz)
 
     def overlapping(self, frequency_hz: float, half_width: float) -> np.ndarray:
@@ -131,18 +130,18 @@ def shaft_frequency_range(pulse_time: np.ndarray, pulses_per_rev: int, segment: 
     ppr = int(pulses_per_rev)
     if ppr < 1:
         raise ConfigError("pulses_per_rev", f"must be >= 1; got {pulses_per_rev}")
+    segment = float(segment)
     if not (np.isfinite(segment) and segment > 0):
         raise ConfigError("identify.nonparametric.segment",
                           f"must be a positive duration [s]; got {segment}")
     start = np.arange(p.size)
     # from each pulse, the first whole revolution ending a segment later or more
-    end = start + ppr * np.ceil((np.searchsorted(p, p + float(segment)) - start) / ppr
-                                ).astype(int)
+    end = start + ppr * np.ceil((np.searchsorted(p, p + segment) - start) / ppr).astype(int)
     ok = end < p.size
     if not ok.any():
         raise DataError("pulse_time", f"{p.size} pulses at {ppr} per revolution do not span "
-                        f"one Welch segment ({float(segment):g} s) in whole revolutions: "
-                        "record a longer run")
+                        f"one Welch segment ({segment:g} s) in whole revolutions: record a "
+                        "longer run")
     f = (end[ok] - start[ok]) / ppr / (p[end[ok]] - p[start[ok]])
     return float(f.min()), float(f.max())
 
@@ -260,29 +259,30 @@ def record_harmonic_bands(record: xr.Dataset, orders: Sequence[float], resolutio
         ``orders`` given for a record with no speed; a speed signal missing or not in
         rad/s.
     """
-    # the Welch segment of the estimate (1 / resolution) unless given; asked for only with
-    # a speed (harmonic_bands refuses a resolution that is not positive)
-    welch = (lambda: 1.0 / resolution_hz) if segment is None else (lambda: segment)
+    speed = next(iter(speeds or {}), None)  # the first speed signal, without a tacho
+    if "pulse_time" not in record and speed is None:
+        if len(orders):
+            raise DataError("pulse_time", f"the record has no tachometer and no speed "
+                            f"signal, so its orders {list(orders)} cannot be placed: map a "
+                            "tacho, or give a speed or angle signal its shaft_order, or "
+                            "remove orders")
+        empty = np.array([])
+        return HarmonicBands(empty, empty, empty, (np.nan, np.nan))
+    welch = 1.0 / resolution_hz if segment is None else segment  # the estimate's segment
     if "pulse_time" in record:
         shaft = shaft_frequency_range(np.asarray(record["pulse_time"].values, dtype=float),
-                                      int(record.attrs["pulses_per_rev"]), welch())
+                                      int(record.attrs["pulses_per_rev"]), welch)
         return harmonic_bands(shaft, orders, resolution_hz, n_harmonics,
                               f_max)._replace(source="the tacho")
-    for name, shaft_order in (speeds or {}).items():
-        if name not in record or record[name].attrs.get("units") != "rad/s":
-            raise DataError(f"signal '{name}'", "a signal with shaft_order must be a speed "
-                            "(quantity: angle, or a value in an angular-speed unit such as "
-                            "rpm or rad/s)")
-        shaft = speed_frequency_range(record[name].values, float(record.attrs["sample_rate"]),
-                                      shaft_order, welch())
-        return harmonic_bands(shaft, orders, resolution_hz, n_harmonics, f_max)._replace(
-            source=f"speed signal {name} (shaft order {shaft_order:g})")
-    if len(orders):
-        raise DataError("pulse_time", f"the record has no tachometer and no speed signal, so "
-                        f"its orders {list(orders)} cannot be placed: map a tacho, or give a "
-                        "speed or angle signal its shaft_order, or remove orders")
-    empty = np.array([])
-    return HarmonicBands(empty, empty, empty, (np.nan, np.nan))
+    if speed not in record or record[speed].attrs.get("units") != "rad/s":
+        raise DataError(f"signal '{speed}'", "a signal with shaft_order must be a speed "
+                        "(quantity: angle, or a value in an angular-speed unit such as "
+                        "rpm or rad/s)")
+    shaft_order = speeds[speed]
+    shaft = speed_frequency_range(record[speed].values, float(record.attrs["sample_rate"]),
+                                  shaft_order, welch)
+    return harmonic_bands(shaft, orders, resolution_hz, n_harmonics, f_max)._replace(
+        source=f"speed signal {speed} (shaft order {shaft_order:g})")
 
 
 def reference_angle(record: xr.Dataset, times: np.ndarray,
