@@ -41,7 +41,10 @@ Scoring, the same for every tool, on the rows in 5-350 Hz:
 * harmonic share: of the rows on an excited order line (order x the shaft's speed range,
   widened by ``df``) that match no truth mode, the share labelled ``harmonic``;
 * modes as harmonic: rows that match a truth mode, lie on no excited order line and are
-  labelled ``harmonic`` (a real mode lost to the label).
+  labelled ``harmonic`` (a real mode lost to the label);
+* damping error: the median of ``|zeta_row / zeta - 1|`` over the coherent modes found
+  (each mode's closest row; per diagram, not for the table as a whole, which may hold
+  two rows of a mode).
 
 Counts are summed over the cases of a speed class (and over all cases) before dividing.
 
@@ -154,13 +157,15 @@ def tolerance(case: modal_cases.Case, df: float) -> np.ndarray:
     return np.maximum(2 * df, 0.5 * case.damping * case.frequency_hz)
 
 
-def score(f_rows: np.ndarray, kinds: np.ndarray, case: modal_cases.Case, asked: np.ndarray,
-          shown: np.ndarray, detect: np.ndarray, df: float, band: tuple[float, float]
-          ) -> tuple[dict[str, int], np.ndarray, np.ndarray]:
+def score(f_rows: np.ndarray, kinds: np.ndarray, z_rows: np.ndarray, case: modal_cases.Case,
+          asked: np.ndarray, shown: np.ndarray, detect: np.ndarray, df: float,
+          band: tuple[float, float]
+          ) -> tuple[dict[str, int], np.ndarray, np.ndarray, np.ndarray]:
     """Counts of one tool on one case (module docstring); which truth modes a ``mode`` row
-    matched; which have a ``mode`` row within their tolerance that matched another."""
+    matched; which have a ``mode`` row within their tolerance that matched another; the
+    relative damping error of each truth mode's row (NaN where none matched)."""
     keep = (f_rows >= band[0]) & (f_rows <= band[1])
-    f_rows, kinds = f_rows[keep], kinds[keep]
+    f_rows, kinds, z_rows = f_rows[keep], kinds[keep], z_rows[keep]
     f_t = case.frequency_hz
     tol = tolerance(case, df)
     is_mode = ~np.isin(kinds, NOT_MODE)
@@ -169,10 +174,14 @@ def score(f_rows: np.ndarray, kinds: np.ndarray, case: modal_cases.Case, asked: 
     hit = d[np.arange(f_rows.size), nearest] <= 1.0
     true_rows = 0
     found = np.zeros(f_t.size, bool)
+    damping_error = np.full(f_t.size, np.nan)
     for j in range(f_t.size):  # the closest mode row of each truth mode counts, once
         rows = np.flatnonzero(hit & is_mode & (nearest == j))
         true_rows += rows.size > 0
         found[j] = rows.size > 0
+        if found[j]:
+            row = rows[np.argmin(d[rows, j])]
+            damping_error[j] = abs(z_rows[row] / case.damping[j] - 1)
     lo, hi = case.shaft_hz
     on_line = np.zeros(f_rows.size, bool)
     for k in case.orders:
@@ -188,7 +197,7 @@ def score(f_rows: np.ndarray, kinds: np.ndarray, case: modal_cases.Case, asked: 
             "mode_rows": int(is_mode.sum()), "true_rows": int(true_rows),
             "line_rows": int(on_line.sum()),
             "line_harmonic": int((on_line & (kinds == "harmonic")).sum()),
-            "mode_harmonic": int(mode_harmonic.sum())}, found, near
+            "mode_harmonic": int(mode_harmonic.sum())}, found, near, damping_error
 
 
 def gbpipe_modes(cfg: Any, record: Any, case: modal_cases.Case) -> tuple[Any, bool]:
@@ -237,16 +246,17 @@ def run_case(case: modal_cases.Case, folder: Path, memory: bool, peers: bool = T
     overlap = modal_overlap(case.frequency_hz, case.damping)
     detect = snr >= 1.0
     tol = tolerance(case, df)
-    out: dict[str, Any] = {"counts": {}, "cost": {}, "misses": []}
+    out: dict[str, Any] = {"counts": {}, "cost": {}, "misses": [], "damping_error": {}}
     (ds, out["orders_taken"]), *cost = measured(lambda: gbpipe_modes(cfg, rec, case), memory)
     out["cost"]["gbpipe (pbsid + lscf)"] = cost
     either = np.zeros(case.frequency_hz.size, bool)
     for method in ds.method.values:
         d = ds.sel({"method": method}).isel(pairing=0)
         ok = np.isfinite(d.mode_frequency.values)
-        out["counts"][f"gbpipe {method}"], found, near = score(
+        out["counts"][f"gbpipe {method}"], found, near, err = score(
             d.mode_frequency.values[ok], np.asarray(d.mode_kind.values[ok], dtype=str),
-            case, asked, shown, detect, df, band)
+            d.mode_damping.values[ok], case, asked, shown, detect, df, band)
+        out["damping_error"][f"gbpipe {method}"] = err[found & asked]
         either |= found
         for j in np.flatnonzero(asked & ~found):
             why = (miss_reason(d, case.frequency_hz[j], tol[j], near[j]) if detect[j] else
@@ -276,9 +286,11 @@ def run_case(case: modal_cases.Case, folder: Path, memory: bool, peers: bool = T
         print(f"  {case.name}: pyOMA2 failed: {type(exc).__name__}: {exc}")
         found, cost = [], [np.nan, np.nan, np.nan]
     out["cost"]["pyOMA2 ssi-cov + hier"] = cost
-    f_peer = np.array([f for f, _ in found])
-    out["counts"]["pyOMA2 ssi-cov + hier"] = score(f_peer, np.full(f_peer.size, "mode"),
-                                                   case, asked, shown, detect, df, band)[0]
+    f_peer, z_peer = (np.array([row[k] for row in found]) for k in (0, 1))
+    tool = "pyOMA2 ssi-cov + hier"
+    out["counts"][tool], found, _, err = score(f_peer, np.full(f_peer.size, "mode"), z_peer,
+                                               case, asked, shown, detect, df, band)
+    out["damping_error"][tool] = err[found & asked]
     return out
 
 
@@ -291,7 +303,8 @@ def table(cases: list[modal_cases.Case], results: list[dict[str, Any]]) -> None:
     tools = list(results[0]["counts"])
     print(f"\n{'tool':24s} {'speed':8s} {'cases':>5s} {'asked':>5s} {'recall':>6s} "
           f"{'shown':>5s} {'recall':>6s} {'detect':>6s} {'recall':>6s} {'mode rows':>9s} "
-          f"{'precision':>9s} {'line rows':>9s} {'harmonic':>8s} {'modes as harmonic':>17s}")
+          f"{'precision':>9s} {'line rows':>9s} {'harmonic':>8s} {'modes as harmonic':>17s} "
+          f"{'damping error':>13s}")
     for tool in tools:
         for cls in (*SPEEDS, "all"):
             rows = [r["counts"][tool] for c, r in zip(cases, results, strict=True)
@@ -301,12 +314,18 @@ def table(cases: list[modal_cases.Case], results: list[dict[str, Any]]) -> None:
             tot = {k: sum(r[k] for r in rows) for k in rows[0]}
             harm = ("     n/a" if tool.startswith("pyOMA2") else
                     f"{ratio(tot['line_harmonic'], tot['line_rows']):>8s}")
+            # median relative damping error of the coherent modes found (one row each);
+            # the table as a whole has two rows per mode, so none
+            errs = [r["damping_error"][tool] for c, r in zip(cases, results, strict=True)
+                    if cls in ("all", c.speed) and tool in r["damping_error"]]
+            err = (f"{np.median(np.concatenate(errs)):13.3f}"
+                   if errs and np.concatenate(errs).size else f"{'n/a':>13s}")
             print(f"{tool:24s} {cls:8s} {len(rows):5d} {tot['asked']:5d} "
                   f"{ratio(tot['found'], tot['asked'])} {tot['shown']:5d} "
                   f"{ratio(tot['found_shown'], tot['shown'])} {tot['detect']:6d} "
                   f"{ratio(tot['found_detect'], tot['detect'])} {tot['mode_rows']:9d} "
                   f"{ratio(tot['true_rows'], tot['mode_rows']):>9s} {tot['line_rows']:9d} "
-                  f"{harm} {tot['mode_harmonic']:17d}")
+                  f"{harm} {tot['mode_harmonic']:17d} {err}")
     print(f"{'sdypy-EMA lscf':24s} not scored: no automatic selection (select_poles is a "
           "GUI, select_closest_poles needs the frequencies)")
     print(f"\n{'tool':24s} {'cpu total [s]':>13s} {'cpu/case [s]':>12s} "

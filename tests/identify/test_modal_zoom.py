@@ -19,8 +19,8 @@ from gbpipe.config import load, merge
 from gbpipe.figures import stabilization_plots
 from gbpipe.figures.stabilization_plots import stabilization_figure
 from gbpipe.identify import record_modes
-from gbpipe.identify.modal_diagrams import zoom_bands
-from gbpipe.sysid import join_poles, select_poles
+from gbpipe.identify.modal_diagrams import join_bands, zoom_bands
+from gbpipe.sysid import Stabilization, join_poles, select_poles, stabilize
 from tests.conftest import CONFIG
 
 FS, SEGMENT, ZETA = 1000.0, 4.0, 0.02  # Hz, s, -
@@ -81,12 +81,24 @@ def test_a_low_mode_the_full_rate_lscf_misses_is_found_zoomed(seed):
             j = np.argmin(np.abs(b.mode_frequency.values - f))
             assert abs(b.mode_frequency.values[j] - f) <= 1e-9 * f
             assert abs(b.mode_damping.values[j] - z) <= 1e-9 * z
-    # the model order is the identification rate's: the same with and without the zoom,
-    # and a mode no order of it holds is named in the status
+    # the model order is the identification rate's: the lowest order of its diagram (the
+    # one without the zoom) with a pole within the frequency tolerance of every mode
+    # either method found that some order of it holds, and a mode no order of it holds
+    # is named in the status
+    tol = _cfg()["identify"]["stabilization"]["frequency_tolerance"]
+    modes = np.concatenate([d.mode_frequency.values[d.mode_kind.values == "mode"]
+                            for d in (_rows(zoomed, m) for m in zoomed.method.values)])
     for method in plain.method.values:
         p, z = (x.sel({"method": method}).isel(pairing=0) for x in (plain, zoomed))
-        assert int(p.model_order) == int(z.model_order)
-        if str(z.status.values).startswith("poor"):
+        w = p.pole_frequency.shape[-1]  # poles per order, NaN-padded to the widest order
+        np.testing.assert_array_equal(z.model_pole_frequency.values[:, :w], p.pole_frequency)
+        assert np.isnan(z.model_pole_frequency.values[:, w:]).all()
+        held = np.array([[np.any(np.abs(row - f) <= tol * f) for f in modes]
+                         for row in p.pole_frequency.values])
+        lowest = p.order.values[np.flatnonzero(held[:, held.any(axis=0)].all(axis=1))[0]]
+        assert int(z.model_order) == int(lowest)
+        if not held.any(axis=0).all():
+            assert str(z.status.values).startswith("poor")
             assert f"{LOW:.1f}" in str(z.status.values)
 
 
@@ -145,3 +157,46 @@ def test_the_figure_dots_the_bands_edges_on_a_frequency_axis(tmp_path, monkeypat
         d = _rows(back, method)
         for f in d.mode_frequency.values:
             assert f"{f:.1f} Hz" in numbers[f"{method} clusters"]
+
+
+def _diagram(modes: dict[float, float], orders: np.ndarray) -> Stabilization:
+    """A diagram whose pole at each order is ``f (1 + jitter(k))`` for every mode ``f``:
+    ``jitter`` 0 gives a pole that drifts by 1e-4 per order (stable), a non-zero one
+    alternates its sign (a pole that jumps between orders)."""
+    poles = []
+    for k in range(orders.size):
+        f = np.sort([f0 * (1 + (1e-4 * k if j == 0 else j * (-1) ** k))
+                     for f0, j in modes.items()])
+        poles.append((f, np.full(f.size, 0.02), np.ones((f.size, 1), complex)))
+    return stabilize(orders, poles, "pbsid")
+
+
+def test_a_zoomed_diagram_keeps_its_cluster_below_its_band():
+    """A mode below a zoomed band's edge that its diagram holds and the band below does
+    not (its poles there jump 3 % between orders) is read from the zoomed diagram: the
+    joined cluster is that diagram's, pole for pole, and says so in its decimation. A mode
+    that both hold is read from the less decimated diagram, as the identification rate's
+    own clusters are."""
+    orders = np.arange(2, 42, 2)
+    crit = {"frequency_tolerance": 0.01, "damping_tolerance": 0.05, "mac_min": 0.95}
+    res = [(_diagram({60.0: 0.0}, orders), 1, 40.0, np.inf),
+           (_diagram({10.0: 0.0, 12.1: 0.0, 30.0: 0.0}, orders), 2, 20.0, 40.0),
+           (_diagram({10.0: 0.015, 12.0: 0.0, 15.0: 0.0}, orders), 4, 0.0, 20.0)]
+    assert not any(abs(m.frequency_hz - 10.0) < 0.5 for m in res[2][0].clusters)
+    d = join_bands(res, "pbsid", crit)
+    low = [m for m in d.joined.clusters if abs(m.frequency_hz - 10.0) < 0.5]
+    # stable at every order but the first (which has no order before it to match)
+    assert len(low) == 1 and low[0].n_orders == orders.size - 1
+    # the zoomed diagram's poles: the median of 10 (1 + 1e-4 k) over k = 1 .. 19
+    assert low[0].frequency_hz == pytest.approx(10.0 * (1 + 1e-4 * orders.size / 2),
+                                                rel=1e-12)
+    assert d.decimation(low[0].frequency_hz, crit["frequency_tolerance"]) == 2
+    # the band below keeps none of its jumping poles near that cluster, and every other
+    # mode comes from the band it lies in
+    # the joined diagram's poles near each of the two modes below the zoomed band are the
+    # zoomed diagram's (12 Hz: though the band below holds it too)
+    for f0 in (10.0, 12.1):
+        for (f, *_), (fz, *_) in zip(d.joined.poles, res[1][0].poles, strict=True):
+            assert np.array_equal(f[np.abs(f - f0) < 0.5], fz[np.abs(fz - f0) < 0.5])
+    assert sorted(round(m.frequency_hz) for m in d.joined.clusters) == [10, 12, 15, 30, 60]
+    assert [d.decimation(f, 0.01) for f in (12.1, 15.0, 30.0, 60.0)] == [2, 4, 2, 1]

@@ -4,8 +4,8 @@ Two diagrams (:func:`diagrams`): the subspace one (``identify.stabilization.meth
 the conditioned data and an LSCF one on their nonparametric FRF (every Welch line but DC,
 up to Nyquist: :func:`_whole_band`). Both are fitted again on the data decimated further
 (:func:`zoom_bands`) and each is read as one diagram joined over those bands
-(:func:`gbpipe.sysid.join_poles`), the identification rate's own clusters keeping their
-poles; the identification rate's diagram alone sets the model order
+(:func:`join_bands`), each diagram's clusters below its band keeping their poles; the
+identification rate's diagram alone sets the model order
 (:class:`Diagram`). :func:`gbpipe.identify.record_modes` calls it; docs/modal.md, "What
 the stage does" and "Zoomed diagrams".
 """
@@ -32,7 +32,7 @@ from gbpipe.sysid import (
     stabilize,
 )
 
-__all__ = ["Diagram", "diagrams", "order_range", "zoom_bands"]
+__all__ = ["Diagram", "diagrams", "join_bands", "order_range", "zoom_bands"]
 
 log = logging.getLogger("gbpipe")
 
@@ -126,41 +126,75 @@ def diagrams(u: np.ndarray, y: np.ndarray, r: np.ndarray | None, fs: float,
                     log.info("%s %s: the band below %.3g Hz (%g Hz rate) is left out: "
                              "%s: %s", name, method, high, fs / q, type(exc).__name__, exc)
     for method, res in fitted.items():
-        own = res[0][0]
-        fc = np.array([m.frequency_hz for m in own.clusters])
-        # the bands kept (the lowest down to 0 Hz), each with the decimation it was fitted at
-        bands = [(q, 0.0 if k == len(res) - 1 else low, high)
-                 for k, (_, q, low, high) in enumerate(res)]
-        joined = own
-        if len(res) > 1:
-            # the diagram at the identification rate keeps its band and every cluster it
-            # found below (its estimate stands where it has one); a zoomed band adds its
-            # poles elsewhere in its band
-            parts = [select_poles(d.poles, partial(_believed, band=band[1:], own=fc,
-                                                   tol=_NEAR * float(st["frequency_tolerance"]),
-                                                   first=not k))
-                     for k, ((d, *_), band) in enumerate(zip(res, bands, strict=True))]
-            joined = stabilize(own.orders, join_poles(parts), method, **crit)
-        out[method] = Diagram(joined, own, bands)
+        out[method] = join_bands(res, method, crit)
     return out
+
+
+def join_bands(res: Sequence[tuple[Stabilization, int, float, float]], method: str,
+               crit: Mapping[str, float]) -> Diagram:
+    """One method's diagrams over the zoom bands, read as one diagram.
+
+    Each diagram keeps its band and every cluster it found below it, from the
+    identification rate down: a diagram's estimate stands where it has one, and the
+    diagrams below add their poles elsewhere in their bands. A more decimated diagram
+    spends its orders on fewer modes, but it can lose a low mode that the diagram above
+    it held (seed 2 of ``benchmarks/modal_selection.py``, case 28: its 5.1 Hz mode is a
+    cluster of 21 orders at 250 Hz, scattered over 4.8-5.4 Hz at 125 Hz). Where both hold
+    one, the less decimated estimate stands, as the identification rate's does: the
+    band's own diagram first lost most of the gain (docs/modal.md, "A zoomed diagram's
+    clusters below its band"). A diagram's clusters above its band, near its
+    anti-aliasing edge, keep nothing.
+
+    Parameters
+    ----------
+    res : sequence of (Stabilization, int, float, float)
+        Per band, from the identification rate down: its diagram, decimation and band
+        edges [Hz] (:func:`zoom_bands`).
+    method : str
+        Name of the joined diagram.
+    crit : mapping
+        The stability criteria (``frequency_tolerance``, ``damping_tolerance``,
+        ``mac_min``) of :func:`gbpipe.sysid.stabilize`.
+
+    Returns
+    -------
+    Diagram
+    """
+    own = res[0][0]
+    # the bands kept (the lowest down to 0 Hz), each with the decimation it was fitted at
+    bands = [(q, 0.0 if k == len(res) - 1 else low, high)
+             for k, (_, q, low, high) in enumerate(res)]
+    claims = [np.array([m.frequency_hz for m in d.clusters if m.frequency_hz < high])
+              for (d, *_), (_, _, high) in zip(res, bands, strict=True)]
+    if len(res) == 1:
+        return Diagram(own, own, bands, claims)
+    tol = _NEAR * float(crit["frequency_tolerance"])
+    parts = [select_poles(d.poles, partial(_believed, band=band[1:], own=claims[k],
+                                           taken=np.concatenate([[], *claims[:k]]), tol=tol))
+             for k, ((d, *_), band) in enumerate(zip(res, bands, strict=True))]
+    return Diagram(stabilize(own.orders, join_poles(parts), method, **crit), own, bands,
+                   claims)
 
 
 @dataclass
 class Diagram:
     """One method's diagram of one pairing: ``joined`` over the zoom bands (the modes),
     ``own`` at the identification rate alone (the model order), ``bands`` kept:
-    (decimation, lower, upper edge [Hz])."""
+    (decimation, lower, upper edge [Hz]), and per band the frequencies [Hz] of its
+    diagram's clusters not above its band, whose poles it keeps (``claims``)."""
 
     joined: Stabilization
     own: Stabilization
     bands: list[tuple[int, float, float]]
+    claims: list[np.ndarray]
 
     def decimation(self, frequency_hz: float, tol: float) -> int:
         """Decimation of the diagram a cluster of the joined one at ``frequency_hz`` was
         read from (as :func:`_believed` kept its poles)."""
-        own = np.array([m.frequency_hz for m in self.own.clusters])
-        if _near(np.array([frequency_hz]), own, _NEAR * tol)[0]:
-            return 1
+        f = np.array([frequency_hz])
+        for (q, *_), claimed in zip(self.bands, self.claims, strict=True):
+            if _near(f, claimed, _NEAR * tol)[0]:
+                return q
         return next(q for q, low, high in self.bands if low <= frequency_hz < high)
 
 
@@ -174,13 +208,12 @@ def _near(f: np.ndarray, own: np.ndarray, tol: float) -> np.ndarray:
     return (np.abs(f[:, None] - own[None, :]) <= tol * own[None, :]).any(axis=1)
 
 
-def _believed(f: np.ndarray, band: tuple[float, float], own: np.ndarray, tol: float,
-              first: bool) -> np.ndarray:
-    # which poles [Hz] of a diagram the joined one keeps: in its band, and (the first,
-    # at the identification rate) near its own clusters, which the others leave to it
-    near = _near(f, own, tol)
+def _believed(f: np.ndarray, band: tuple[float, float], own: np.ndarray,
+              taken: np.ndarray, tol: float) -> np.ndarray:
+    # which poles [Hz] of a diagram the joined one keeps: in its band or near its own
+    # clusters, but not near those the diagrams above it kept
     inside = (f >= band[0]) & (f < band[1])
-    return inside | near if first else inside & ~near
+    return (inside | _near(f, own, tol)) & ~_near(f, taken, tol)
 
 
 def _lscf(u: np.ndarray, y: np.ndarray, r: np.ndarray | None, fs: float,
