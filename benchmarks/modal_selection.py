@@ -288,9 +288,9 @@ def run_case(case: modal_cases.Case, folder: Path, memory: bool, peers: bool = T
     out["cost"]["pyOMA2 ssi-cov + hier"] = cost
     f_peer, z_peer = (np.array([row[k] for row in found]) for k in (0, 1))
     tool = "pyOMA2 ssi-cov + hier"
-    out["counts"][tool], found, _, err = score(f_peer, np.full(f_peer.size, "mode"), z_peer,
-                                               case, asked, shown, detect, df, band)
-    out["damping_error"][tool] = err[found & asked]
+    out["counts"][tool], peer_found, _, err = score(
+        f_peer, np.full(f_peer.size, "mode"), z_peer, case, asked, shown, detect, df, band)
+    out["damping_error"][tool] = err[peer_found & asked]
     return out
 
 
@@ -316,10 +316,12 @@ def table(cases: list[modal_cases.Case], results: list[dict[str, Any]]) -> None:
                     f"{ratio(tot['line_harmonic'], tot['line_rows']):>8s}")
             # median relative damping error of the coherent modes found (one row each);
             # the table as a whole has two rows per mode, so none
-            errs = [r["damping_error"][tool] for c, r in zip(cases, results, strict=True)
-                    if cls in ("all", c.speed) and tool in r["damping_error"]]
-            err = (f"{np.median(np.concatenate(errs)):13.3f}"
-                   if errs and np.concatenate(errs).size else f"{'n/a':>13s}")
+            errs = np.concatenate([[]] + [r["damping_error"][tool]
+                                          for c, r in zip(cases, results, strict=True)
+                                          if cls in ("all", c.speed)
+                                          and tool in r["damping_error"]])
+            err = (f"{np.nanmedian(errs):13.3f}" if np.isfinite(errs).any()
+                   else f"{'n/a':>13s}")
             print(f"{tool:24s} {cls:8s} {len(rows):5d} {tot['asked']:5d} "
                   f"{ratio(tot['found'], tot['asked'])} {tot['shown']:5d} "
                   f"{ratio(tot['found_shown'], tot['shown'])} {tot['detect']:6d} "

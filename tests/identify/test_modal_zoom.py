@@ -85,6 +85,7 @@ def test_a_low_mode_the_full_rate_lscf_misses_is_found_zoomed(seed):
     # one without the zoom) with a pole within the frequency tolerance of every mode
     # either method found that some order of it holds, and a mode no order of it holds
     # is named in the status
+    # (and the lines it fitted at its rate, the harmonic rows of decimation 1)
     tol = _cfg()["identify"]["stabilization"]["frequency_tolerance"]
     modes = np.concatenate([d.mode_frequency.values[d.mode_kind.values == "mode"]
                             for d in (_rows(zoomed, m) for m in zoomed.method.values)])
@@ -93,11 +94,18 @@ def test_a_low_mode_the_full_rate_lscf_misses_is_found_zoomed(seed):
         w = p.pole_frequency.shape[-1]  # poles per order, NaN-padded to the widest order
         np.testing.assert_array_equal(z.model_pole_frequency.values[:, :w], p.pole_frequency)
         assert np.isnan(z.model_pole_frequency.values[:, w:]).all()
-        held = np.array([[np.any(np.abs(row - f) <= tol * f) for f in modes]
+        r = _rows(zoomed, method)
+        wanted = np.concatenate([modes, r.mode_frequency.values[
+            (r.mode_kind.values == "harmonic") & (r.mode_decimation.values == 1)]])
+        held = np.array([[np.any(np.abs(row - f) <= tol * f) for f in wanted]
                          for row in p.pole_frequency.values])
-        lowest = p.order.values[np.flatnonzero(held[:, held.any(axis=0)].all(axis=1))[0]]
+        every = held[:, held.any(axis=0)].all(axis=1)
+        lowest = (0 if not modes.size else
+                  p.order.values[np.flatnonzero(every)[0]] if every.any() else p.order.values[-1])
         assert int(z.model_order) == int(lowest)
-        if not held.any(axis=0).all():
+        if held[:, :modes.size].any(axis=0).all():
+            assert str(z.status.values) == "ok"
+        else:
             assert str(z.status.values).startswith("poor")
             assert f"{LOW:.1f}" in str(z.status.values)
 
@@ -191,8 +199,6 @@ def test_a_zoomed_diagram_keeps_its_cluster_below_its_band():
     assert low[0].frequency_hz == pytest.approx(10.0 * (1 + 1e-4 * orders.size / 2),
                                                 rel=1e-12)
     assert d.decimation(low[0].frequency_hz, crit["frequency_tolerance"]) == 2
-    # the band below keeps none of its jumping poles near that cluster, and every other
-    # mode comes from the band it lies in
     # the joined diagram's poles near each of the two modes below the zoomed band are the
     # zoomed diagram's (12 Hz: though the band below holds it too)
     for f0 in (10.0, 12.1):
@@ -200,3 +206,28 @@ def test_a_zoomed_diagram_keeps_its_cluster_below_its_band():
             assert np.array_equal(f[np.abs(f - f0) < 0.5], fz[np.abs(fz - f0) < 0.5])
     assert sorted(round(m.frequency_hz) for m in d.joined.clusters) == [10, 12, 15, 30, 60]
     assert [d.decimation(f, 0.01) for f in (12.1, 15.0, 30.0, 60.0)] == [2, 4, 2, 1]
+
+
+def test_a_zoomed_diagram_keeps_nothing_above_its_band():
+    """Above a zoomed band's top the diagram above keeps its poles alone: a cluster of the
+    zoomed diagram above its band (near its anti-aliasing edge) keeps none, and one that
+    straddles the top keeps those below it, so that no frequency holds two diagrams'
+    poles (whose scatter would match each other's, order to order)."""
+    orders = np.arange(2, 42, 2)
+    crit = {"frequency_tolerance": 0.01, "damping_tolerance": 0.05, "mac_min": 0.95}
+    zoomed = _diagram({30.0: 0.0, 45.0: 0.0}, orders)
+    # a cluster straddling the top (40 Hz): its poles alternate 39.85 and 40.05 Hz (0.5 %
+    # apart: stable), its median (of the stable ones, orders 1-19) 39.85 Hz below the top
+    for k, (f, *_) in enumerate(zoomed.poles):
+        f = np.sort(np.append(f, 39.85 if k % 2 else 40.05))
+        zoomed.poles[k] = (f, np.full(f.size, 0.02), np.ones((f.size, 1), complex))
+    zoomed = stabilize(orders, zoomed.poles, "pbsid")
+    assert any(abs(m.frequency_hz - 39.85) < 1e-9 for m in zoomed.clusters)
+    assert any(abs(m.frequency_hz - 45.0) < 0.1 for m in zoomed.clusters)
+    top = _diagram({40.3: 0.006, 60.0: 0.0}, orders)  # poles jumping 1.2 % above the top
+    d = join_bands([(top, 1, 40.0, np.inf), (zoomed, 2, 0.0, 40.0)], "pbsid", crit)
+    for (f, *_), (ft, *_), (fz, *_) in zip(d.joined.poles, top.poles, zoomed.poles,
+                                           strict=True):
+        mine = np.sort(np.concatenate([fz[(fz > 35) & (fz < 40)], ft[(ft >= 40) & (ft < 50)]]))
+        assert np.array_equal(f[(f > 35) & (f < 50)], mine)
+    assert not any(abs(m.frequency_hz - 45.0) < 1.0 for m in d.joined.clusters)

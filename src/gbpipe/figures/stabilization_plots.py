@@ -109,8 +109,8 @@ def stabilization_figure(ds: xr.Dataset, pairing: str, record: str,
                   "lines' bands named by their order over the record's speed range widened "
                   "by the resolution (shaded; the speed: "
                   f"{ds.attrs.get('speed_source', 'the tacho')}), the edges below which "
-                  "the poles come from the data decimated further (dotted, zoom; the "
-                  "identification rate's own clusters keep theirs), and the "
+                  "the poles come from the data decimated further (dotted, zoom; each "
+                  "diagram's clusters below its band keep theirs), and the "
                   "nonparametric FRF's mode indicator (green, right axis).",
                   numbers)
     return numbers

@@ -198,8 +198,8 @@ class Diagram:
         return next(q for q, low, high in self.bands if low <= frequency_hz < high)
 
 
-#: Relative distance (in frequency tolerances) within which the identification rate's own
-#: cluster keeps its poles in the joined diagram.
+#: Relative distance (in frequency tolerances) within which a diagram's cluster keeps its
+#: poles in the joined diagram.
 _NEAR = 2.0
 
 
@@ -211,9 +211,10 @@ def _near(f: np.ndarray, own: np.ndarray, tol: float) -> np.ndarray:
 def _believed(f: np.ndarray, band: tuple[float, float], own: np.ndarray,
               taken: np.ndarray, tol: float) -> np.ndarray:
     # which poles [Hz] of a diagram the joined one keeps: in its band or near its own
-    # clusters, but not near those the diagrams above it kept
+    # clusters below its top (above it the diagram above keeps its own poles: one
+    # diagram's per frequency), but not near those the diagrams above it kept
     inside = (f >= band[0]) & (f < band[1])
-    return (inside | _near(f, own, tol)) & ~_near(f, taken, tol)
+    return (inside | (_near(f, own, tol) & (f < band[1]))) & ~_near(f, taken, tol)
 
 
 def _lscf(u: np.ndarray, y: np.ndarray, r: np.ndarray | None, fs: float,
