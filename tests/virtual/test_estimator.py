@@ -4,10 +4,12 @@ computations (python-control's dlqe, a time-varying RTS smoother written here)."
 
 from __future__ import annotations
 
+import warnings
+
 import control
 import numpy as np
 import pytest
-from scipy import signal
+from scipy import linalg, signal
 
 from gbpipe.errors import ConfigError, DataError
 from gbpipe.lti import fit_percent
@@ -156,6 +158,35 @@ def test_smoother_equals_time_varying_rts_in_the_interior(block):
     assert start <= 5 * tau and end <= 5 * tau, (start, end, tau)
     # and only the ends: one steady stretch
     assert np.all(k[start:N - end])
+
+
+def test_smoothed_covariance_is_the_rts_fixed_point_without_a_warning():
+    """The steady smoothed covariance Ps solves Ps = G Ps Gᵀ + Pf − G P Gᵀ: against the
+    fixed point of that recursion summed in extended precision by doubling (G's spectral
+    radius < 1), to 1e-12 of each entry's scale; and the states' units, decades apart
+    (rad, rad/s, N·m), no longer make scipy's solver warn of an ill-conditioned system."""
+    rec = simulate_chain(7, n_disks=4, duration=1.5)
+    model = estimation_model(build_chain(rec.description), SENSORS, ["torque_shaft1"],
+                             ["n3"], rec.dt, offsets=False)
+    noise = NoiseModel(np.array([0.05, 0.05]), np.array([0.5]), np.array([30.0]), 0.05)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", linalg.LinAlgWarning)
+        g = gains(model, noise)
+    d = np.sqrt(np.diag(g.P))
+    assert d.max() / d.min() > 1e5   # the case that warned: scales six decades apart
+    G = g.G.astype(np.longdouble)
+    q = (g.Pf - g.G @ g.P @ g.G.T).astype(np.longdouble)
+    assert np.max(np.abs(np.linalg.eigvals(g.G))) < 0.99
+    # the recursion's sum q + G q Gᵀ + G² q G²ᵀ + ... by doubling (Smith's method):
+    # after k steps 2^k terms, the rest of order rho^(2^(k+1)), rho = 0.98 here
+    x, a = q, G
+    for _ in range(14):
+        x = x + a @ x @ a.T
+        a = a @ a
+    assert np.max(np.abs(a)) < 1e-30
+    ref = x.astype(float)
+    # relative to each entry's own scale d_i d_j: the entries span ten decades
+    assert np.max(np.abs(g.Ps - ref) / np.outer(d, d)) < 1e-12
 
 
 def test_torque_sensors_alone_cannot_see_the_rigid_speed():
