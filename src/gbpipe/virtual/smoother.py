@@ -203,12 +203,12 @@ def gains(model: EstimationModel, noise: NoiseModel) -> Gains:
     # G = Pf Aᵀ P⁻¹ (P and Pf symmetric), P equilibrated first: its states mix rad and
     # rad/s and N·m, diagonal entries decades apart
     d = np.sqrt(np.diag(P))
-    G = ((linalg.pinvh(P / np.outer(d, d)) @ ((A @ Pf) / d[:, None])) / d[:, None]).T
+    scale = np.outer(d, d)
+    G = ((linalg.pinvh(P / scale) @ ((A @ Pf) / d[:, None])) / d[:, None]).T
     # Ps = G Ps Gᵀ + (Pf − G P Gᵀ) in the same equilibrated coordinates (Ps = D X D, D =
     # diag d): unscaled, the Kronecker system I − G⊗G that scipy solves mixes entries
     # decades apart (rcond 5e-23 on a 4-disk chain, a LinAlgWarning) although G's spectral
     # radius is 0.98 there; scaled, its rcond is 8e-6
-    scale = np.outer(d, d)
     Ps = linalg.solve_discrete_lyapunov(G * d / d[:, None], (Pf - G @ P @ G.T) / scale) * scale
     return Gains(P, Pf, 0.5 * (Ps + Ps.T), K, S, A - A @ K @ C, G)
 
