@@ -100,8 +100,12 @@ def test_a_low_mode_the_full_rate_lscf_misses_is_found_zoomed(seed):
         held = np.array([[np.any(np.abs(row - f) <= tol * f) for f in wanted]
                          for row in p.pole_frequency.values])
         every = held[:, held.any(axis=0)].all(axis=1)
-        lowest = (0 if not modes.size else
-                  p.order.values[np.flatnonzero(every)[0]] if every.any() else p.order.values[-1])
+        if not modes.size:
+            lowest = 0
+        elif every.any():
+            lowest = p.order.values[np.flatnonzero(every)[0]]
+        else:
+            lowest = p.order.values[-1]
         assert int(z.model_order) == int(lowest)
         if held[:, :modes.size].any(axis=0).all():
             assert str(z.status.values) == "ok"

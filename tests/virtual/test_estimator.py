@@ -98,6 +98,16 @@ def test_steady_gain_equals_python_control_dlqe():
     assert np.allclose(g.P, P, rtol=1e-6, atol=1e-9 * np.abs(P).max())
 
 
+def _four_disk_chain():
+    """A 4-disk chain's record, its estimation model (no offsets) and a noise model: the
+    case of the smoother's comparisons with a time-varying RTS smoother."""
+    rec = simulate_chain(7, n_disks=4, duration=1.5)
+    model = estimation_model(build_chain(rec.description), SENSORS, ["torque_shaft1"],
+                             ["n3"], rec.dt, offsets=False)
+    noise = NoiseModel(np.array([0.05, 0.05]), np.array([0.5]), np.array([30.0]), 0.05)
+    return rec, model, noise
+
+
 @pytest.mark.parametrize("block", [BLOCK, 257])
 def test_smoother_equals_time_varying_rts_in_the_interior(block):
     """The steady-state smoother against the textbook time-varying Kalman filter and RTS
@@ -105,10 +115,7 @@ def test_smoother_equals_time_varying_rts_in_the_interior(block):
     estimate is flagged steady, the exact variance within 5 % of the steady band's. In
     one block and in blocks of 257 samples (the record's states never held at once; the
     last block partial): the same to round-off, everywhere."""
-    rec = simulate_chain(7, n_disks=4, duration=1.5)
-    model = estimation_model(build_chain(rec.description), SENSORS, ["torque_shaft1"],
-                             ["n3"], rec.dt, offsets=False)
-    noise = NoiseModel(np.array([0.05, 0.05]), np.array([0.5]), np.array([30.0]), 0.05)
+    rec, model, noise = _four_disk_chain()
     y = np.column_stack([rec.y[s] for s in SENSORS])
     u = rec.u_measured
     est = smooth(model, noise, y, u, block=block)
@@ -165,10 +172,7 @@ def test_smoothed_covariance_is_the_rts_fixed_point_without_a_warning():
     fixed point of that recursion summed in extended precision by doubling (G's spectral
     radius < 1), to 1e-12 of each entry's scale; and the states' units, decades apart
     (rad, rad/s, N·m), no longer make scipy's solver warn of an ill-conditioned system."""
-    rec = simulate_chain(7, n_disks=4, duration=1.5)
-    model = estimation_model(build_chain(rec.description), SENSORS, ["torque_shaft1"],
-                             ["n3"], rec.dt, offsets=False)
-    noise = NoiseModel(np.array([0.05, 0.05]), np.array([0.5]), np.array([30.0]), 0.05)
+    _, model, noise = _four_disk_chain()
     with warnings.catch_warnings():
         warnings.simplefilter("error", linalg.LinAlgWarning)
         g = gains(model, noise)
